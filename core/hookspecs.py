@@ -1,0 +1,46 @@
+"""The hooks a plugin may implement. Each hands the plugin a `register(name, factory)` callback.
+
+A factory is called as `factory(**options)` with the options of the chosen config (minus
+`name`); retriever factories also get `encoder=`. It returns an instance of the matching
+class in xicm.core.interfaces (tasks: a task class of the simulator named in the call).
+"""
+
+import pluggy
+
+hookspec = pluggy.HookspecMarker("xicm")
+hookimpl = pluggy.HookimplMarker("xicm")
+
+
+@hookspec
+def register_simulators(register):
+    """Register simulator factories: register(name, factory)."""
+
+
+@hookspec
+def register_tasks(register):
+    """Register tasks: register(name, task_class, simulator=name of the simulator it runs in)."""
+
+
+@hookspec
+def register_detectors(register):
+    """Register detector factories: register(name, factory)."""
+
+
+@hookspec
+def register_encoders(register):
+    """Register dynamics/text encoder factories: register(name, factory)."""
+
+
+@hookspec
+def register_retrievers(register):
+    """Register retriever factories: register(name, factory); factories receive encoder=."""
+
+
+@hookspec
+def register_prompt_builders(register):
+    """Register prompt builder factories: register(name, factory)."""
+
+
+@hookspec
+def register_llms(register):
+    """Register LLM factories: register(name, factory)."""

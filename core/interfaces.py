@@ -1,0 +1,109 @@
+"""The abstract classes that plugins implement. Each plugin family has one."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from xicm.core.types import (
+    Demo,
+    KeyAction,
+    Observation,
+    Prompt,
+    Query,
+    StepOutcome,
+    TaskInfo,
+    Trajectory,
+)
+
+Box = tuple[tuple[float, float, float], tuple[float, float, float]]
+
+
+class Simulator(ABC):
+    """One live scene, reused across episodes (the first render of a process is slow)."""
+
+    #: (low xyz, high xyz) of the box the 100^3 text grid covers, metres, world frame.
+    workspace: Box
+
+    @abstractmethod
+    def task_names(self) -> list[str]:
+        """Names of the tasks this simulator can load."""
+
+    @abstractmethod
+    def task_info(self, task: str) -> TaskInfo:
+        """Split, instruction and object names of a task."""
+
+    @abstractmethod
+    def reset(self, task: str, seed: int, episode: int) -> Observation:
+        """Load `task` and sample its initial state from (seed, task, episode)."""
+
+    @abstractmethod
+    def observe(self) -> Observation:
+        """Render the cameras and return the current observation."""
+
+    @abstractmethod
+    def execute(self, action: KeyAction) -> StepOutcome:
+        """Move to the key pose, then set the gripper; never raises for a bad pose."""
+
+    @abstractmethod
+    def is_success(self) -> bool:
+        """Whether the current state satisfies the task's success condition."""
+
+    @abstractmethod
+    def demonstrate(self) -> Trajectory:
+        """Run the task's scripted demonstrator from the current reset state and record it."""
+
+    def close(self) -> None:
+        """Release the scene and renderer."""
+
+
+class Detector(ABC):
+    """Finds named objects in an observation."""
+
+    @abstractmethod
+    def detect(self, obs: Observation, names: list[str]) -> dict[str, tuple[float, float, float]]:
+        """World-frame centre of each name that was found; missing names are left out."""
+
+
+class Encoder(ABC):
+    """Turns a (first frame, instruction) pair into a feature vector for retrieval."""
+
+    @abstractmethod
+    def encode(self, items: list[tuple[np.ndarray | None, str]]) -> np.ndarray:
+        """Features of shape (len(items), D), one row per (rgb, instruction) pair."""
+
+    def cache_key(self) -> str:
+        """A string that changes whenever the features would change (model, weights, config)."""
+        return type(self).__name__
+
+
+class Retriever(ABC):
+    """Chooses the in-context demonstrations for a query from the pool."""
+
+    def prepare(self, pool: list[Demo]) -> None:
+        """Called once per run with the whole pool (compute and cache pool features here)."""
+
+    @abstractmethod
+    def select(self, query: Query, pool: list[Demo], k: int, rng: np.random.Generator) -> list[tuple[Demo, float]]:
+        """k distinct demos with their scores, best first."""
+
+
+class PromptBuilder(ABC):
+    """Turns the chosen demos and the query into chat messages."""
+
+    @abstractmethod
+    def build(self, demos: list[Demo], query: Query, workspace: Box) -> Prompt:
+        """The prompt for one LLM call; demos are given best first."""
+
+
+class LLM(ABC):
+    """Answers a prompt with text that should contain 7-integer key actions."""
+
+    @abstractmethod
+    def complete(self, prompt: Prompt) -> str:
+        """The model's reply to the prompt."""
+
+    def identity(self) -> str:
+        """Model and decoding settings; part of the response-cache key."""
+        return type(self).__name__

@@ -1,0 +1,126 @@
+"""Plain data passed between the stages of X-ICM. Units: metres, radians, world frame."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class KeyAction:
+    """One key pose of the end effector and the gripper state to set after reaching it."""
+
+    position: tuple[float, float, float]
+    quat_wxyz: tuple[float, float, float, float]
+    gripper_open: bool
+
+
+@dataclass
+class CameraFrame:
+    """One camera's picture. Extrinsics use the OpenCV convention (x right, y down, z forward)."""
+
+    rgb: np.ndarray  # (H, W, 3) uint8
+    depth: np.ndarray  # (H, W) float32 metres along the optical axis; 0 where nothing was hit
+    segmentation: np.ndarray  # (H, W) int32 actor ids, see Observation.segment_names
+    intrinsic: np.ndarray  # (3, 3)
+    cam_to_world: np.ndarray  # (4, 4)
+
+
+@dataclass
+class Observation:
+    """What the agent may see at one instant."""
+
+    instruction: str
+    cameras: dict[str, CameraFrame]
+    segment_names: dict[int, str]  # segmentation id -> name of the task object it belongs to
+    object_names: list[str]  # the task objects to describe in the prompt, in prompt order
+    gripper: KeyAction  # current end-effector pose and gripper state
+    joint_positions: np.ndarray
+
+
+@dataclass(frozen=True)
+class TaskInfo:
+    """Static facts about a task: its split ('seen', 'level1', 'level2') and instruction."""
+
+    name: str
+    split: str
+    instruction: str
+    object_names: tuple[str, ...]
+
+
+@dataclass
+class StepOutcome:
+    """Result of executing one key action in the simulator."""
+
+    ok: bool  # False when the pose could not be reached or the simulator failed
+    success: bool  # task success checked after the move
+    error_kind: str | None = None  # e.g. "unreachable", "sim_error"
+    error_message: str | None = None
+
+
+@dataclass
+class Trajectory:
+    """A recorded scripted run: one row per control frame (see DESIGN.md, frame rate)."""
+
+    joint_positions: np.ndarray  # (T, n_joints)
+    joint_velocities: np.ndarray  # (T, n_joints)
+    gripper_open: np.ndarray  # (T,) bool
+    ee_poses: np.ndarray  # (T, 7) position xyz + quaternion wxyz
+    success: bool
+
+
+@dataclass
+class Demo:
+    """A demonstration as it is stored in the pool and shown to the LLM."""
+
+    demo_id: str
+    task: str
+    instruction: str
+    seed: int
+    episode: int
+    objects: dict[str, tuple[float, float, float]]  # first-frame object centres (metres)
+    key_actions: list[KeyAction]
+    first_rgb: np.ndarray | None = None
+    last_rgb: np.ndarray | None = None
+    first_depth: np.ndarray | None = None
+    last_depth: np.ndarray | None = None
+    trajectory: Trajectory | None = None
+
+
+@dataclass
+class Query:
+    """What the agent knows about the episode it must solve when it asks the LLM."""
+
+    task: str
+    instruction: str
+    objects: dict[str, tuple[float, float, float]]
+    front_rgb: np.ndarray | None = None
+
+
+@dataclass
+class Prompt:
+    """Chat messages plus the structured pieces they were made from (for LLM-free baselines)."""
+
+    messages: list[dict[str, str]]
+    demos: list[Demo]
+    query: Query
+
+
+@dataclass
+class EpisodeResult:
+    """One evaluated episode; one line of episodes.jsonl."""
+
+    task: str
+    seed: int
+    episode: int
+    success: bool
+    steps: int
+    error_kind: str | None = None
+    error_message: str | None = None
+    retrieved: list[str] = field(default_factory=list)
+    prompt_hash: str | None = None
+    responses: list[str] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
