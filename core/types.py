@@ -106,6 +106,7 @@ class Prompt:
     messages: list[dict[str, str]]
     demos: list[Demo]
     query: Query
+    workspace: tuple[tuple[float, float, float], tuple[float, float, float]]
 
 
 @dataclass

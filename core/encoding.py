@@ -1,0 +1,144 @@
+"""Scene and action text as in AGNOSTOS: a 100^3 voxel grid over the workspace, 72 rotation
+bins per Euler axis, 7-integer actions, and the key-frame heuristic on recorded trajectories."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from xicm.core.types import KeyAction, Trajectory
+
+Box = tuple[tuple[float, float, float], tuple[float, float, float]]
+
+GRID = 100  # voxels per axis
+ROT_BIN_DEG = 5.0
+ROT_BINS = 72  # 360 / 5
+
+
+# ---------------------------------------------------------------- positions
+def position_to_voxel(xyz: Sequence[float], workspace: Box) -> tuple[int, int, int]:
+    """Voxel index of a point; points outside the box are clipped to the border voxel."""
+    low, high = np.asarray(workspace[0], float), np.asarray(workspace[1], float)
+    size = (high - low) / GRID
+    idx = np.floor((np.asarray(xyz, float) - low) / size).astype(int)
+    return tuple(int(v) for v in np.clip(idx, 0, GRID - 1))
+
+
+def voxel_to_position(voxel: Sequence[int], workspace: Box) -> tuple[float, float, float]:
+    """Centre of a voxel in metres."""
+    low, high = np.asarray(workspace[0], float), np.asarray(workspace[1], float)
+    size = (high - low) / GRID
+    return tuple(float(v) for v in low + (np.asarray(voxel, float) + 0.5) * size)
+
+
+# ---------------------------------------------------------------- rotations
+def quat_to_bins(quat_wxyz: Sequence[float]) -> tuple[int, int, int]:
+    """Quaternion (w >= 0 after normalising) -> extrinsic xyz Euler degrees -> 72 bins per axis."""
+    q = np.asarray(quat_wxyz, float)
+    q = q / np.linalg.norm(q)
+    if q[0] < 0:
+        q = -q
+    euler = Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_euler("xyz", degrees=True)
+    bins = np.round((euler + 180.0) / ROT_BIN_DEG).astype(int) % ROT_BINS
+    return tuple(int(b) for b in bins)
+
+
+def bins_to_quat(bins: Sequence[int]) -> tuple[float, float, float, float]:
+    """Inverse of quat_to_bins up to the 5 degree quantisation; returns w >= 0."""
+    euler = (np.asarray(bins, float) % ROT_BINS) * ROT_BIN_DEG - 180.0
+    x, y, z, w = Rotation.from_euler("xyz", euler, degrees=True).as_quat()
+    q = np.array([w, x, y, z])
+    if q[0] < 0:
+        q = -q
+    return tuple(float(v) for v in q)
+
+
+# ---------------------------------------------------------------- actions
+def action_to_ints(action: KeyAction, workspace: Box) -> list[int]:
+    """[x, y, z, roll, pitch, yaw, gripper_open] as 7 integers."""
+    return [*position_to_voxel(action.position, workspace), *quat_to_bins(action.quat_wxyz), int(action.gripper_open)]
+
+
+def ints_to_action(values: Sequence[int], workspace: Box) -> KeyAction:
+    """Decode 7 integers; position is the voxel centre, gripper is open for any value >= 1."""
+    if len(values) != 7:
+        raise ValueError(f"an action has 7 integers, got {len(values)}")
+    return KeyAction(
+        position=voxel_to_position(values[:3], workspace),
+        quat_wxyz=bins_to_quat(values[3:6]),
+        gripper_open=bool(values[6] >= 1),
+    )
+
+
+def quantise(action: KeyAction, workspace: Box) -> KeyAction:
+    """The action as the LLM would see it: round-trip through the 7-integer text."""
+    return ints_to_action(action_to_ints(action, workspace), workspace)
+
+
+# ---------------------------------------------------------------- text
+def format_ints(values: Sequence[int]) -> str:
+    return "[" + ", ".join(str(int(v)) for v in values) + "]"
+
+
+def format_actions(actions: Sequence[KeyAction], workspace: Box) -> str:
+    """'[[x, y, z, r, p, y, g], ...]'"""
+    return "[" + ", ".join(format_ints(action_to_ints(a, workspace)) for a in actions) + "]"
+
+
+def format_objects(objects: dict[str, Sequence[float]], workspace: Box) -> str:
+    """'name [x, y, z], name [x, y, z]' with voxel indices, in the given order."""
+    return ", ".join(f"{name} {format_ints(position_to_voxel(xyz, workspace))}" for name, xyz in objects.items())
+
+
+# ---------------------------------------------------------------- key frames
+def keyframe_indices(
+    joint_velocities: np.ndarray, gripper_open: np.ndarray, stopping_delta: float = 0.1
+) -> list[int]:
+    """Key frames of a recorded trajectory (the AGNOSTOS/PerAct heuristic).
+
+    Frame i (i > 0) is a key frame when the gripper state changes at i, when i is the last
+    frame, or when the arm has stopped: all joint velocities within `stopping_delta` of zero,
+    the gripper state unchanged over frames i-2..i+1, i is not the second-to-last frame, and
+    at least 4 frames have passed since the previous stop. If the last two key frames are
+    adjacent, the second-to-last is dropped.
+    """
+    vel = np.asarray(joint_velocities, float)
+    grip = np.asarray(gripper_open, bool)
+    n = len(grip)
+    keys: list[int] = []
+    stop_buffer = 0
+    for i in range(n):
+        stopped = _is_stopped(vel, grip, i, stop_buffer, stopping_delta)
+        stop_buffer = 4 if stopped else stop_buffer - 1
+        if i == 0:
+            continue
+        if grip[i] != grip[i - 1] or i == n - 1 or stopped:
+            keys.append(i)
+    if len(keys) > 1 and keys[-1] - 1 == keys[-2]:
+        keys.pop(-2)
+    return keys
+
+
+def _is_stopped(vel: np.ndarray, grip: np.ndarray, i: int, stop_buffer: int, delta: float) -> bool:
+    n = len(grip)
+    if stop_buffer > 0 or i < 2 or i >= n - 2:
+        return False
+    gripper_steady = grip[i] == grip[i + 1] == grip[i - 1] == grip[i - 2]
+    return bool(gripper_steady and np.allclose(vel[i], 0.0, atol=delta))
+
+
+def key_actions_from_trajectory(traj: Trajectory, stopping_delta: float = 0.1) -> list[KeyAction]:
+    """Key actions (TCP pose + gripper state) at the key frames of a trajectory."""
+    actions = []
+    for i in keyframe_indices(traj.joint_velocities, traj.gripper_open, stopping_delta):
+        pose = traj.ee_poses[i]
+        actions.append(
+            KeyAction(
+                position=tuple(float(v) for v in pose[:3]),
+                quat_wxyz=tuple(float(v) for v in pose[3:7]),
+                gripper_open=bool(traj.gripper_open[i]),
+            )
+        )
+    return actions

@@ -1,0 +1,30 @@
+"""Exceptions with a one-sentence message meant for the user.
+
+Errors during an episode become `EpisodeResult.error_kind` (the kind strings below) and the
+run goes on; ConfigError stops a run before its first episode.
+"""
+
+
+class XicmError(Exception):
+    """Base class of xicm's own errors."""
+
+
+class ConfigError(XicmError):
+    """A config names something that does not exist (plugin, model file, dataset)."""
+
+
+class LLMError(XicmError):
+    """The LLM could not answer (server unreachable, timeout after retries, bad reply shape)."""
+
+    kind = "llm_error"
+
+
+# Error kinds recorded in episodes.jsonl.
+ERROR_KINDS = (
+    "parse_error",  # the reply held no usable 7-integer action
+    "llm_error",  # the LLM failed to answer
+    "unreachable",  # IK/planning could not reach a pose
+    "sim_error",  # the simulator raised during the episode
+    "detector_error",  # the detector failed
+    "max_steps",  # the step budget ran out without success
+)
