@@ -26,5 +26,8 @@ ERROR_KINDS = (
     "unreachable",  # IK/planning could not reach a pose
     "sim_error",  # the simulator raised during the episode
     "detector_error",  # the detector failed
+    "retrieval_error",  # the retriever failed
     "max_steps",  # the step budget ran out without success
+    "max_llm_calls",  # the LLM-call budget ran out without success
+    "internal_error",  # an unexpected exception in our own code (a bug: please report it)
 )

@@ -1,0 +1,83 @@
+"""Console scripts. Hydra apps share conf/; heavy imports happen only inside the jobs."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import hydra
+from omegaconf import DictConfig
+
+from xicm.core.errors import XicmError
+from xicm.core.plugins import UnknownPluginError
+
+CONFIG_PATH = "../conf"  # core/ and conf/ are siblings in the checkout and in the wheel
+
+
+def _fail(exc: Exception) -> None:
+    print(f"xicm: error: {exc}", file=sys.stderr)
+    sys.exit(2)
+
+
+@hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="config")
+def eval_main(cfg: DictConfig) -> None:
+    """Evaluate X-ICM on the benchmark's tasks and print the success table."""
+    from hydra.core.hydra_config import HydraConfig
+
+    from xicm.core.eval_job import run_eval
+    from xicm.core.report import markdown_table
+
+    out_dir = Path(HydraConfig.get().runtime.output_dir)
+    try:
+        summary = run_eval(cfg, out_dir)
+    except (XicmError, UnknownPluginError) as exc:
+        _fail(exc)
+    print()
+    print(markdown_table(summary))
+    print(f"\nresults: {out_dir}/ (episodes.jsonl, summary.json, table.md, tasks.csv)")
+
+
+@hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="config")
+def collect_main(cfg: DictConfig) -> None:
+    """Record scripted demonstrations of benchmark.pool_tasks into pool_path (resumable)."""
+    from xicm.core.collect_job import run_collect
+
+    try:
+        run_collect(cfg)
+    except (XicmError, UnknownPluginError) as exc:
+        _fail(exc)
+
+
+def plugins_main() -> None:
+    """Print every loaded plugin with its version and hooks, and what each family offers."""
+    from xicm.core.plugins import KINDS, describe_plugins, get_registry
+
+    registry = get_registry()
+    for row in describe_plugins(registry.pm):
+        print(f"{row['name']} {row['version']}: {', '.join(row['hooks'])}")
+    print()
+    for kind in KINDS:
+        print(f"{kind}: {', '.join(registry.names(kind)) or '-'}")
+
+
+def report_main(argv: list[str] | None = None) -> None:
+    """xicm-report RUN_DIR [RUN_DIR ...]: print the table of finished or partial runs."""
+    import json
+
+    from xicm.core.evaluate import EPISODES_FILE, read_episodes
+    from xicm.core.report import markdown_table, summarise
+
+    args = sys.argv[1:] if argv is None else argv
+    if not args or args[0] in ("-h", "--help"):
+        print("usage: xicm-report RUN_DIR [RUN_DIR ...]  (folders holding episodes.jsonl and run.json)")
+        sys.exit(0 if args else 2)
+    for arg in args:
+        run_dirs = sorted(p.parent for p in Path(arg).rglob(EPISODES_FILE)) or [Path(arg)]
+        for run_dir in run_dirs:
+            meta_path = run_dir / "run.json"
+            if not (run_dir / EPISODES_FILE).exists() or not meta_path.exists():
+                _fail(XicmError(f"{run_dir} has no {EPISODES_FILE} and run.json; pass an xicm-eval output folder"))
+            meta = json.loads(meta_path.read_text())
+            print(f"## {run_dir}\n")
+            print(markdown_table(summarise(read_episodes(run_dir / EPISODES_FILE), meta["splits"], meta["tasks"])))
+            print()

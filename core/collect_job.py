@@ -1,0 +1,48 @@
+"""xicm-collect's job: scripted demonstrations of benchmark.pool_tasks into pool_path."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from omegaconf import DictConfig
+
+from xicm.core import build
+from xicm.core.errors import ConfigError
+from xicm.core.plugins import get_registry
+
+
+def run_collect(cfg: DictConfig) -> dict[str, tuple[int, int]]:
+    registry = get_registry()
+    tasks = list(cfg.benchmark.pool_tasks)
+    if not tasks:
+        raise ConfigError(f"benchmark '{cfg.benchmark.name}' lists no pool_tasks to collect")
+    known = registry.names("task")
+    unknown = [t for t in tasks if t not in known]
+    if unknown:
+        raise ConfigError(f"unknown task {', '.join(map(repr, unknown))}; available: {', '.join(known)}")
+    registry.get("simulator", cfg.simulator.name)
+    registry.get("detector", cfg.detector.name)
+
+    from xicm.core.collect import collect
+
+    out_path = Path(cfg.pool_path)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    simulator = registry.create("simulator", build.options(cfg, "simulator"))
+    try:
+        counts = collect(
+            simulator=simulator,
+            detector=registry.create("detector", build.options(cfg, "detector")),
+            tasks=tasks,
+            demos_per_task=int(cfg.collect.demos_per_task),
+            seed=int(cfg.collect.seed),
+            out_path=out_path,
+            max_attempts_factor=float(cfg.collect.max_attempts_factor),
+            progress=bool(cfg.progress),
+        )
+    finally:
+        simulator.close()
+    print(f"\npool: {out_path}")
+    print("| task | demos | attempts | scripted success % |\n|---|---:|---:|---:|")
+    for task, (ok, attempts) in counts.items():
+        print(f"| {task} | {ok} | {attempts} | {100.0 * ok / max(attempts, 1):.1f} |")
+    return counts

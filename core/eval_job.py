@@ -1,0 +1,136 @@
+"""xicm-eval's job: build the plugins from the config, run the episodes, write the report."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+from omegaconf import DictConfig, OmegaConf
+
+from xicm.core import build, report
+from xicm.core.agent import XICMAgent
+from xicm.core.errors import ConfigError
+from xicm.core.evaluate import episode_keys, run_episodes, write_json_atomic, write_text_atomic
+from xicm.core.plugins import describe_plugins, get_registry
+from xicm.core.tracking import Tracker
+
+# Keys that may change between an interrupted run and its resumption.
+RESUMABLE_KEYS = ("seeds", "episodes", "progress", "tracking", "paths", "llm_cache", "run_name", "collect")
+
+
+def config_fingerprint(cfg: DictConfig) -> str:
+    data = OmegaConf.to_container(cfg, resolve=False)
+    for key in RESUMABLE_KEYS:
+        data.pop(key, None)
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def check_resume(out_dir: Path, cfg: DictConfig) -> None:
+    """Refuse to mix episodes of two different configs in one output folder."""
+    marker = out_dir / "run.json"
+    fingerprint = config_fingerprint(cfg)
+    if marker.exists():
+        old = json.loads(marker.read_text()).get("fingerprint")
+        if old != fingerprint:
+            raise ConfigError(
+                f"{out_dir} holds episodes of a different config (fingerprint {old} != {fingerprint}); "
+                "choose another output folder with hydra.run.dir=... or delete that one"
+            )
+
+
+def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
+    registry = get_registry()
+    tasks = list(cfg.benchmark.tasks)
+    build.check_names(cfg, registry, tasks)
+    pool_path = build.check_pool(cfg.pool_path)
+    check_resume(out_dir, cfg)
+    out_dir.mkdir(parents=True, exist_ok=True)
+
+    from xicm.core.dataset import load_pool
+
+    pool = load_pool(pool_path, tasks=list(cfg.benchmark.pool_tasks), with_images=True)
+    if not pool:
+        raise ConfigError(f"the pool {pool_path} holds no demos of {list(cfg.benchmark.pool_tasks)}; collect them first")
+
+    plugins = describe_plugins(registry.pm)
+    simulator = registry.create("simulator", build.options(cfg, "simulator"))
+    try:
+        splits = {t: simulator.task_info(t).split for t in tasks}
+        write_json_atomic(
+            out_dir / "run.json",
+            {
+                "fingerprint": config_fingerprint(cfg),
+                "tasks": tasks,
+                "splits": splits,
+                "pool": str(pool_path),
+                "pool_size": len(pool),
+                "plugins": plugins,
+                "config": OmegaConf.to_container(cfg, resolve=True),
+            },
+        )
+        encoder = build.build_encoder(cfg, registry)
+        retriever = build.build_retriever(cfg, registry, encoder)
+        retriever.prepare(pool)
+        llm = _build_llm(cfg, registry)
+        agent = XICMAgent(
+            simulator=simulator,
+            detector=registry.create("detector", build.options(cfg, "detector")),
+            retriever=retriever,
+            prompt_builder=registry.create("prompt", build.options(cfg, "prompt")),
+            llm=llm,
+            pool=pool,
+            k=int(cfg.prompt.k),
+            max_steps=int(cfg.max_steps),
+            max_llm_calls=cfg.max_llm_calls,
+        )
+        tracker = Tracker(
+            mode=cfg.tracking.mode,
+            project=cfg.tracking.project,
+            run_name=str(cfg.run_name),
+            out_dir=str(out_dir),
+            config={**OmegaConf.to_container(cfg, resolve=True), "plugins": plugins},
+        )
+        try:
+            keys = episode_keys(tasks, cfg.seeds, cfg.episodes)
+            rows = run_episodes(
+                agent.run_episode,
+                keys,
+                out_dir,
+                progress=bool(cfg.progress),
+                on_result=lambda r: tracker.log({"success": int(r.success), "steps": r.steps, f"task/{r.task}/success": int(r.success)}),
+            )
+            summary = write_report(rows, splits, tasks, out_dir)
+            _track_summary(tracker, summary)
+        finally:
+            tracker.finish()
+    finally:
+        simulator.close()
+    return summary
+
+
+def _build_llm(cfg: DictConfig, registry):
+    llm = registry.create("llm", build.options(cfg, "llm"))
+    if cfg.llm_cache.enabled and getattr(llm, "deterministic", False):
+        from xicm.core.llm_cache import CachedLLM
+
+        llm = CachedLLM(llm, cfg.llm_cache.path)
+    return llm
+
+
+def write_report(rows: list[dict[str, Any]], splits: dict[str, str], tasks: list[str], out_dir: Path) -> dict[str, Any]:
+    summary = report.summarise(rows, splits, tasks)
+    write_json_atomic(out_dir / "summary.json", summary)
+    write_text_atomic(out_dir / "table.md", report.markdown_table(summary) + "\n")
+    write_text_atomic(out_dir / "tasks.csv", report.tasks_csv(summary))
+    return summary
+
+
+def _track_summary(tracker: Tracker, summary: dict[str, Any]) -> None:
+    tracker.summary({f"success/{g['group']}": g["success"] for g in summary["groups"]})
+    tracker.log_table(
+        "tasks",
+        ["task", "split", "success", "std", "n", "ci_low", "ci_high"],
+        [[r["task"], r["split"], r["success"], r["std"], r["n"], r["ci_low"], r["ci_high"]] for r in summary["tasks"]],
+    )

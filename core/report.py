@@ -1,0 +1,109 @@
+"""Success tables: per task, then Level-1 / Level-2 / Seen / All as mean (std) over seeds."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+GROUPS = (("Level-1", "level1"), ("Level-2", "level2"), ("Seen", "seen"))
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95% Wilson score interval of a success rate (0..1)."""
+    if n == 0:
+        return (0.0, 0.0)
+    p = successes / n
+    denom = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def _mean_std(values: Sequence[float]) -> tuple[float, float]:
+    arr = np.asarray(values, float)
+    if arr.size == 0:
+        return (float("nan"), float("nan"))
+    std = float(arr.std(ddof=1)) if arr.size > 1 else 0.0
+    return (float(arr.mean()), std)
+
+
+def summarise(rows: Sequence[dict[str, Any]], splits: dict[str, str], task_order: Sequence[str]) -> dict[str, Any]:
+    """Success rates (percent) per task and per group; seeds are the unit of the std."""
+    per_task_seed: dict[str, dict[int, list[bool]]] = defaultdict(lambda: defaultdict(list))
+    errors: dict[str, dict[str, int]] = defaultdict(lambda: defaultdict(int))
+    for r in rows:
+        per_task_seed[r["task"]][int(r["seed"])].append(bool(r["success"]))
+        if r.get("error_kind"):
+            errors[r["task"]][r["error_kind"]] += 1
+    seeds = sorted({int(r["seed"]) for r in rows})
+    tasks = [t for t in task_order if t in per_task_seed]
+
+    task_rows = []
+    for task in tasks:
+        by_seed = per_task_seed[task]
+        rates = [100.0 * np.mean(by_seed[s]) for s in seeds if by_seed.get(s)]
+        flat = [x for s in seeds for x in by_seed.get(s, [])]
+        mean, std = _mean_std(rates)
+        lo, hi = wilson_interval(sum(flat), len(flat))
+        task_rows.append(
+            {
+                "task": task,
+                "split": splits.get(task, "?"),
+                "success": mean,
+                "std": std,
+                "n": len(flat),
+                "successes": int(sum(flat)),
+                "ci_low": 100 * lo,
+                "ci_high": 100 * hi,
+                "errors": dict(errors.get(task, {})),
+            }
+        )
+
+    group_rows = []
+    for label, split in (*GROUPS, ("All", None)):
+        members = [t for t in tasks if split is None or splits.get(t) == split]
+        if not members:
+            continue
+        seed_means = []
+        for s in seeds:
+            rates = [100.0 * np.mean(per_task_seed[t][s]) for t in members if per_task_seed[t].get(s)]
+            if rates:
+                seed_means.append(float(np.mean(rates)))
+        mean, std = _mean_std(seed_means)
+        group_rows.append({"group": label, "tasks": len(members), "success": mean, "std": std, "seeds": len(seed_means)})
+    return {"seeds": seeds, "tasks": task_rows, "groups": group_rows, "episodes": len(rows)}
+
+
+def markdown_table(summary: dict[str, Any]) -> str:
+    lines = [
+        "| task | split | success % | std | n | 95% CI | errors |",
+        "|---|---|---:|---:|---:|---|---|",
+    ]
+    for r in summary["tasks"]:
+        errs = ", ".join(f"{k} {v}" for k, v in sorted(r["errors"].items())) or "-"
+        lines.append(
+            f"| {r['task']} | {r['split']} | {r['success']:.1f} | {r['std']:.1f} | {r['n']} "
+            f"| {r['ci_low']:.0f}-{r['ci_high']:.0f} | {errs} |"
+        )
+    for g in summary["groups"]:
+        lines.append(f"| **{g['group']}** ({g['tasks']} tasks) | | **{g['success']:.1f}** | {g['std']:.1f} | | | |")
+    lines.append("")
+    lines.append(f"{summary['episodes']} episodes, seeds {summary['seeds']}; std is over seeds.")
+    return "\n".join(lines)
+
+
+def tasks_csv(summary: dict[str, Any]) -> str:
+    buf = io.StringIO()
+    writer = csv.writer(buf)
+    writer.writerow(["task", "split", "success_pct", "std_over_seeds", "n", "successes", "ci_low_pct", "ci_high_pct"])
+    for r in summary["tasks"]:
+        writer.writerow([r["task"], r["split"], f"{r['success']:.2f}", f"{r['std']:.2f}", r["n"], r["successes"], f"{r['ci_low']:.2f}", f"{r['ci_high']:.2f}"])
+    for g in summary["groups"]:
+        writer.writerow([g["group"], "group", f"{g['success']:.2f}", f"{g['std']:.2f}", "", "", "", ""])
+    return buf.getvalue()

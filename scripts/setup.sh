@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Set xicm up on a fresh Debian/Ubuntu machine; safe to run again (it skips what is done).
+#   - the Vulkan CPU driver (Mesa >= 23 lavapipe) when no usable Vulkan device exists
+#   - a virtual environment in .venv
+#   - torch first (torch==2.13.0; XICM_TORCH_SPEC overrides), so no other package pulls a CUDA build
+#   - xicm itself, editable, with every extra (LLM, serving, tests)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+bash scripts/install_vulkan.sh
+
+PYTHON="${PYTHON:-python3}"
+if [ ! -x .venv/bin/python ]; then
+  echo "[setup] creating .venv with $($PYTHON --version)"
+  "$PYTHON" -m venv .venv
+fi
+PIP=(.venv/bin/python -m pip install --quiet --disable-pip-version-check)
+
+if ! .venv/bin/python -c "import torch" 2>/dev/null; then
+  echo "[setup] installing ${XICM_TORCH_SPEC:-torch==2.13.0}"
+  # shellcheck disable=SC2086
+  "${PIP[@]}" ${XICM_TORCH_SPEC:-torch==2.13.0}
+fi
+echo "[setup] installing xicm[all]"
+"${PIP[@]}" -e ".[all]"
+echo "[setup] done: $(.venv/bin/python -c 'import xicm, torch, sapien; print("xicm", xicm.__version__, "| torch", torch.__version__, "| sapien", sapien.__version__)')"

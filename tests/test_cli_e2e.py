@@ -1,0 +1,68 @@
+"""The console scripts end to end, in subprocesses, on the real simulator (slow)."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+BIN = Path(sys.executable).parent
+
+
+def _run(tool, *args, cwd):
+    out = subprocess.run([str(BIN / tool), *args], capture_output=True, text=True, cwd=cwd, timeout=900)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-4000:]
+    return out
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory):
+    work = tmp_path_factory.mktemp("e2e")
+    common = [f"paths.data={work}/data", f"paths.cache={work}/cache", "progress=false"]
+    out = _run("xicm-collect", "benchmark=smoke", "collect.demos_per_task=2", *common, cwd=work)
+    assert "| open_drawer | 2 |" in out.stdout and "| push_buttons | 2 |" in out.stdout
+    return work, common
+
+
+def test_eval_writes_results_and_resumes(workdir):
+    work, common = workdir
+    args = ["benchmark=smoke", "episodes=1", "prompt.k=2", "hydra.run.dir=run1", *common]
+    first = _run("xicm-eval", *args, cwd=work)
+    assert "**All**" in first.stdout and "| close_microwave | level1 |" in first.stdout
+    run = work / "run1"
+    rows = [json.loads(l) for l in (run / "episodes.jsonl").read_text().splitlines()]
+    assert [(r["task"], r["seed"], r["episode"]) for r in rows] == [
+        ("open_drawer", 0, 0), ("push_buttons", 0, 0), ("close_microwave", 0, 0)
+    ]
+    assert all(len(r["retrieved"]) == 2 and r["prompt_hash"] and "total" in r["timings"] for r in rows)
+    summary = json.loads((run / "summary.json").read_text())
+    assert [g["group"] for g in summary["groups"]] == ["Level-1", "Seen", "All"]
+    meta = json.loads((run / "run.json").read_text())
+    assert any(p["name"] == "xicm.plugins.llms.nearest_demo" for p in meta["plugins"])
+
+    # same command again: nothing re-run, nothing lost; one more episode extends the run
+    _run("xicm-eval", *args, cwd=work)
+    assert len((run / "episodes.jsonl").read_text().splitlines()) == 3
+    _run("xicm-eval", *[a if a != "episodes=1" else "episodes=2" for a in args], cwd=work)
+    assert len((run / "episodes.jsonl").read_text().splitlines()) == 6
+
+    # a different config in the same folder is refused with one sentence
+    bad = subprocess.run([str(BIN / "xicm-eval"), *args, "max_steps=3"], capture_output=True, text=True, cwd=work)
+    assert bad.returncode == 2 and "holds episodes of a different config" in bad.stderr
+
+    report = _run("xicm-report", str(run), cwd=work)
+    assert "| open_drawer | seen |" in report.stdout
+
+
+def test_multirun_sweeps_retriever_and_k(workdir):
+    work, common = workdir
+    _run(
+        "xicm-eval", "-m", "retriever=random,language", "prompt.k=1,2", "benchmark.tasks=[push_buttons]",
+        "episodes=1", "hydra.sweep.dir=sweep", *common, cwd=work,
+    )
+    jobs = sorted(p.parent.name for p in (work / "sweep").rglob("summary.json"))
+    assert len(jobs) == 4, jobs
+    assert any("retriever=language" in j and "prompt.k=2" in j for j in jobs)

@@ -1,0 +1,91 @@
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hydra import compose, initialize_config_module
+from omegaconf import OmegaConf
+
+from xicm.core import build
+from xicm.core.errors import ConfigError
+from xicm.core.plugins import UnknownPluginError, get_registry
+
+CONF = Path(__file__).resolve().parents[1] / "conf"
+GROUPS = ["simulator", "detector", "encoder", "retriever", "prompt", "llm", "benchmark"]
+
+
+def _compose(overrides=()):
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        return compose("config", overrides=list(overrides))
+
+
+@pytest.mark.parametrize("group", GROUPS)
+def test_every_option_of_every_group_composes_and_names_a_registered_plugin(group):
+    registry = get_registry()
+    for option in sorted(p.stem for p in (CONF / group).glob("*.yaml")):
+        cfg = _compose([f"{group}={option}"])
+        if group == "benchmark":
+            assert set(cfg.benchmark.pool_tasks) <= set(registry.names("task")) | set()
+            continue
+        name = cfg[group].name
+        if name is not None:
+            registry.get(build.GROUP_KINDS[group], name)
+
+
+def test_retriever_choice_sets_its_encoder():
+    assert _compose(["retriever=random"]).encoder.name is None
+    assert _compose(["retriever=language"]).encoder.name == "minilm"
+
+
+def test_unknown_plugin_name_stops_with_the_list(tmp_path):
+    cfg = _compose(["llm.name=nope"])
+    with pytest.raises(UnknownPluginError, match="unknown llm 'nope'; available: .*nearest_demo"):
+        build.check_names(cfg, get_registry(), list(cfg.benchmark.tasks))
+
+
+def test_unknown_task_stops_with_the_list():
+    cfg = _compose(["benchmark.tasks=[open_drawer,make_coffee]"])
+    with pytest.raises(ConfigError, match="unknown task 'make_coffee'; available: .*open_drawer"):
+        build.check_names(cfg, get_registry(), list(cfg.benchmark.tasks))
+
+
+def test_missing_pool_says_what_to_run(tmp_path):
+    with pytest.raises(ConfigError, match="run `xicm-collect"):
+        build.check_pool(tmp_path / "pools" / "seen.h5")
+
+
+def _cli(*args, cwd):
+    return subprocess.run([sys.executable, "-c", "import sys; from xicm.core.cli import eval_main; sys.argv[0]='xicm-eval'; eval_main()", *args], capture_output=True, text=True, cwd=cwd)
+
+
+def test_cli_bad_group_option_names_the_options(tmp_path):
+    out = _cli("llm=gpt17", cwd=tmp_path)
+    assert out.returncode != 0
+    assert "Could not find 'llm/gpt17'" in out.stderr and "nearest_demo" in out.stderr
+
+
+def test_cli_unknown_plugin_is_one_clear_sentence(tmp_path):
+    out = _cli("detector.name=xray", cwd=tmp_path)
+    assert out.returncode == 2
+    assert out.stderr.strip().splitlines()[-1] == (
+        "xicm: error: unknown detector 'xray'; available: " + ", ".join(get_registry().names("detector"))
+    )
+
+
+def test_cli_missing_pool_is_one_clear_sentence(tmp_path):
+    out = _cli(f"paths.data={tmp_path}/nothing", cwd=tmp_path)
+    assert out.returncode == 2
+    assert "no demonstration pool at" in out.stderr and "xicm-collect" in out.stderr
+
+
+def test_help_is_fast_and_lists_groups(tmp_path):
+    out = _cli("--help", cwd=tmp_path)
+    assert out.returncode == 0
+    assert "llm: " in out.stdout and "retriever: " in out.stdout
+
+
+def test_config_resolves_without_hydra_runtime_except_run_name():
+    cfg = _compose()
+    container = OmegaConf.to_container(cfg, resolve=False)
+    container.pop("run_name")
+    assert OmegaConf.create(container).pool_path.endswith("pools/smoke.h5")

@@ -1,0 +1,94 @@
+import inspect
+import subprocess
+import sys
+
+import pytest
+
+from xicm.core import hookspecs, plugins
+from xicm.core.hookspecs import hookimpl
+
+
+class ThrowawayPlugin:
+    """A plugin defined in a test, registered and removed again."""
+
+    @hookimpl
+    def register_llms(self, register):
+        register("echo_for_test", lambda reply="[[1, 2, 3, 4, 5, 6, 1]]": reply)
+
+
+@pytest.fixture
+def registry():
+    pm = plugins.make_plugin_manager()
+    return plugins.Registry(pm)
+
+
+def test_builtin_families_are_populated(registry):
+    assert "sapien" in registry.names("simulator")
+    assert {"open_drawer", "push_buttons", "close_microwave"} <= set(registry.names("task"))
+    assert "oracle" in registry.names("detector")
+    assert {"random", "similarity"} <= set(registry.names("retriever"))
+    assert "minilm" in registry.names("encoder")
+    assert "xicm" in registry.names("prompt")
+    assert {"transformers_local", "openai_compatible", "nearest_demo"} <= set(registry.names("llm"))
+
+
+def test_unknown_name_lists_what_exists(registry):
+    with pytest.raises(plugins.UnknownPluginError) as err:
+        registry.get("llm", "gpt-17")
+    message = str(err.value)
+    assert message.startswith("unknown llm 'gpt-17'; available: ")
+    assert "nearest_demo" in message and "transformers_local" in message
+
+
+def test_a_throwaway_plugin_registers_and_unregisters():
+    pm = plugins.make_plugin_manager()
+    plugin = ThrowawayPlugin()
+    pm.register(plugin, name="throwaway")
+    reg = plugins.Registry(pm)
+    assert reg.create("llm", {"name": "echo_for_test", "reply": "hi"}) == "hi"
+    assert reg.get("llm", "echo_for_test").plugin == "throwaway"
+    pm.unregister(plugin)
+    assert "echo_for_test" not in plugins.Registry(pm).names("llm")
+
+
+def test_two_plugins_claiming_one_name_is_an_error():
+    class Clash:
+        @hookimpl
+        def register_llms(self, register):
+            register("nearest_demo", object)
+
+    pm = plugins.make_plugin_manager()
+    pm.register(Clash(), name="clash")
+    with pytest.raises(plugins.PluginConflictError, match="nearest_demo"):
+        plugins.Registry(pm)
+
+
+def test_describe_plugins_gives_name_version_and_hooks(registry):
+    rows = {r["name"]: r for r in plugins.describe_plugins(registry.pm)}
+    assert rows["xicm.plugins.llms.nearest_demo"]["hooks"] == ["register_llms"]
+    assert rows["xicm.plugins.simulators.sapien"]["version"] not in ("", None)
+
+
+def test_every_hookspec_has_a_one_line_docstring_and_a_family():
+    specs = [f for name, f in inspect.getmembers(hookspecs, inspect.isfunction) if name.startswith("register_")]
+    assert len(specs) == 7
+    for f in specs:
+        assert f.__doc__ and "\n" not in f.__doc__.strip(), f.__name__
+        assert f.__name__ in plugins.KINDS.values()
+
+
+def test_xicm_plugins_command_prints_every_plugin():
+    out = subprocess.run([sys.executable, "-c", "from xicm.core.cli import plugins_main; plugins_main()"], capture_output=True, text=True, check=True).stdout
+    assert "xicm.plugins.llms.nearest_demo" in out and "register_llms" in out
+    assert "llm: " in out and "nearest_demo" in out
+
+
+def test_core_and_plugin_modules_import_no_heavy_library():
+    code = (
+        "import sys, xicm.core.cli, xicm.core.agent, xicm.core.eval_job, xicm.core.plugins as p;"
+        "p.get_registry();"
+        "heavy = [m for m in ('torch', 'sapien', 'transformers', 'wandb', 'diffusers', 'sentence_transformers') if m in sys.modules];"
+        "print(','.join(heavy))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == ""
