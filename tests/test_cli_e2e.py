@@ -41,7 +41,7 @@ def test_eval_writes_results_and_resumes(workdir):
     summary = json.loads((run / "summary.json").read_text())
     assert [g["group"] for g in summary["groups"]] == ["Level-1", "Seen", "All"]
     meta = json.loads((run / "run.json").read_text())
-    assert any(p["name"] == "xicm.plugins.llms.nearest_demo" for p in meta["plugins"])
+    assert any(p["name"] == "nearest_demo" for p in meta["plugins"])
 
     # same command again: nothing re-run, nothing lost; one more episode extends the run
     _run("xicm-eval", *args, cwd=work)

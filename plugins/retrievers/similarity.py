@@ -1,0 +1,135 @@
+"""Retriever "similarity": cosine top-k between the query's feature and the pool's features.
+
+Features come from the configured encoder: the query's is
+`encoder.encode([(query.front_rgb, query.instruction)])`, the pool's are
+`encoder.encode([(demo.first_rgb, demo.instruction), ...])`, computed once in `prepare(pool)`
+and cached on disk as an .npy file keyed by `encoder.cache_key()` and a hash of the pool's
+demo ids and instructions (written atomically: a temporary file, then a rename).
+Scores are cosine similarities; equal scores (to 1e-6) are ordered by demo id, so the
+ranking is deterministic.
+
+Options:
+    cache_dir: folder of the feature cache; default $XICM_CACHE/features, or
+        ~/.cache/xicm/features when XICM_CACHE is not set.
+    exclude_same_task: leave out demos of the query's own task (leave-one-task-out
+        studies), default False.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from xicm.core.errors import ConfigError
+from xicm.core.hookspecs import hookimpl
+from xicm.core.interfaces import Encoder, Retriever
+from xicm.core.types import Demo, Query
+from xicm.plugins.retrievers.random import candidates
+
+TIE_DECIMALS = 6  # scores equal to this many decimals count as ties (broken by demo id)
+
+
+def default_cache_dir() -> Path:
+    root = os.environ.get("XICM_CACHE")
+    base = Path(root).expanduser() if root else Path.home() / ".cache" / "xicm"
+    return base / "features"
+
+
+def pool_fingerprint(encoder_key: str, pool: list[Demo]) -> str:
+    """sha256 over the encoder's cache key and every demo's id and instruction, in pool order."""
+    h = hashlib.sha256()
+    h.update(encoder_key.encode())
+    for d in pool:
+        h.update(b"\0" + d.demo_id.encode() + b"\t" + d.instruction.encode())
+    return h.hexdigest()
+
+
+def _normalise(x: np.ndarray) -> np.ndarray:
+    x = np.asarray(x, dtype=np.float32)
+    if x.ndim == 1:
+        x = x[None]
+    x = x.reshape(len(x), -1)  # e.g. latent images flattened
+    norm = np.linalg.norm(x, axis=1, keepdims=True)
+    return x / np.maximum(norm, 1e-12)
+
+
+def save_npy_atomic(path: Path, array: np.ndarray) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.save(f, array)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+class SimilarityRetriever(Retriever):
+    def __init__(self, encoder: Encoder | None = None, cache_dir: str | None = None, exclude_same_task: bool = False):
+        if encoder is None:
+            raise ConfigError("the similarity retriever needs an encoder; set `encoder=` (e.g. encoder=minilm)")
+        self.encoder = encoder
+        self.cache_dir = Path(cache_dir).expanduser() if cache_dir else default_cache_dir()
+        self.exclude_same_task = bool(exclude_same_task)
+        self._rows: dict[str, int] = {}
+        self._features = np.zeros((0, 0), np.float32)
+        self.cache_path: Path | None = None
+        self.cache_hit: bool | None = None
+
+    def prepare(self, pool: list[Demo]) -> None:
+        if not pool:
+            raise ValueError("the demonstration pool is empty; collect demonstrations first (xicm-collect)")
+        key = self.encoder.cache_key()
+        slug = re.sub(r"[^A-Za-z0-9._-]+", "_", key)[:60]
+        path = self.cache_dir / f"{slug}-{pool_fingerprint(key, pool)[:24]}.npy"
+        feats = None
+        if path.exists():
+            try:
+                feats = np.load(path)
+            except (OSError, ValueError):
+                feats = None  # unreadable cache: recompute and overwrite
+            if feats is not None and (feats.ndim != 2 or len(feats) != len(pool)):
+                feats = None
+        self.cache_hit = feats is not None
+        if feats is None:
+            feats = _normalise(self.encoder.encode([(d.first_rgb, d.instruction) for d in pool]))
+            if len(feats) != len(pool):
+                raise RuntimeError(f"encoder returned {len(feats)} features for {len(pool)} demos")
+            save_npy_atomic(path, feats)
+        self.cache_path = path
+        self._features = np.asarray(feats, np.float32)
+        self._rows = {d.demo_id: i for i, d in enumerate(pool)}
+
+    def scores(self, query: Query, demos: list[Demo]) -> np.ndarray:
+        """Cosine similarity of the query to each demo (demos must have been prepared)."""
+        q = _normalise(self.encoder.encode([(query.front_rgb, query.instruction)]))[0]
+        rows = np.fromiter((self._rows[d.demo_id] for d in demos), dtype=np.int64, count=len(demos))
+        return self._features[rows] @ q
+
+    def select(self, query: Query, pool: list[Demo], k: int, rng: np.random.Generator) -> list[tuple[Demo, float]]:
+        demos = candidates(query, pool, self.exclude_same_task)
+        if any(d.demo_id not in self._rows for d in pool):
+            self.prepare(pool)  # not prepared yet, or a different pool
+        s = self.scores(query, demos)
+        k = max(0, min(int(k), len(demos)))
+        if k == 0:
+            return []
+        neg = -np.round(s.astype(np.float64), TIE_DECIMALS)
+        # everything that scores at least the k-th best (ties included), then an exact sort
+        kth = np.partition(neg, k - 1)[k - 1]
+        cand = np.flatnonzero(neg <= kth)
+        order = sorted(cand.tolist(), key=lambda i: (neg[i], demos[i].demo_id))[:k]
+        return [(demos[i], float(s[i])) for i in order]
+
+
+@hookimpl
+def register_retrievers(register):
+    register("similarity", SimilarityRetriever)
