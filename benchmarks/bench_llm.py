@@ -55,7 +55,8 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's choice)")
     args = parser.parse_args()
 
-    from xicm.plugins.llms.transformers_local import TransformersLocalLLM, embedded_model_dir
+    from xicm.plugins.llms.model_files import embedded_model_dir
+    from xicm.plugins.llms.transformers_local import TransformersLocalLLM
 
     tmp = None if args.cache_dir else tempfile.mkdtemp(prefix="xicm-bench-llm-")
     cache = args.cache_dir or tmp

@@ -260,7 +260,7 @@ def test_transformers_serve_embedded_model(tmp_path, capsys):
 
     if not is_serve_available():
         pytest.skip("transformers serve needs fastapi, uvicorn, pydantic and openai")
-    from xicm.plugins.llms.transformers_local import embedded_model_dir
+    from xicm.plugins.llms.model_files import embedded_model_dir
 
     folder = embedded_model_dir()  # converts on first use (~80 s), then cached
     cli = shutil.which("transformers", path=str(Path(sys.executable).parent)) or shutil.which("transformers")

