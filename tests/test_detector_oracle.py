@@ -162,11 +162,6 @@ def test_raycast_square_recovered_with_rotated_cameras():
     assert abs(out["sq"][2] - centre[2]) < 1e-6  # every hit lies on the plane
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="the sapien simulator passes SAPIEN's intrinsic, whose pixel centres are at u + 0.5 "
-    "(cx = W/2); an OpenCV intrinsic needs cx, cy - 0.5 (cameras.py); remove this mark once fixed",
-)
 def test_sapien_frames_follow_the_opencv_pixel_convention():
     """Back-projecting a rendered SAPIEN frame with its CameraFrame reproduces SAPIEN's own points."""
     pytest.importorskip("sapien")

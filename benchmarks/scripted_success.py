@@ -1,0 +1,67 @@
+"""Success of the SAPIEN scripted demonstrators, and of replaying their key actions.
+
+For every task and seed: reset, run the scripted demonstrator, read the key actions off the
+recorded trajectory with the AGNOSTOS key-frame rule, quantise them to the 1 cm / 5 degree
+text grid, reset the same episode and execute them. Physics only (no rendering).
+
+    python benchmarks/scripted_success.py [--seeds 50] [--tasks open_drawer push_buttons ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+
+def main() -> None:
+    from xicm.plugins.simulators.sapien.replay import demo_key_actions, replay
+    from xicm.plugins.simulators.sapien.simulator import SapienSimulator
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=50, help="seeds per task (episode 0 of seeds 0..N-1)")
+    parser.add_argument("--tasks", nargs="*", default=None, help="tasks to run (default: all)")
+    parser.add_argument("--no-replay", action="store_true", help="only run the demonstrators")
+    parser.add_argument("--fixed-variation", action="store_true", help="always variation 0")
+    parser.add_argument("--physics-hz", type=float, default=200.0)
+    args = parser.parse_args()
+
+    sim = SapienSimulator(render=False, sample_variations=not args.fixed_variation, physics_hz=args.physics_hz)
+    tasks = args.tasks or sim.task_names()
+    print(f"{'task':<18} {'demo ok':>9} {'replay ok':>10} {'raw replay':>11} {'frames':>7} {'keys':>5} {'s/demo':>7}")
+    for task in tasks:
+        demo_ok = replay_ok = raw_ok = 0
+        frames, keys, secs = [], [], []
+        failures = []
+        for seed in range(args.seeds):
+            t0 = time.perf_counter()
+            sim.reset_state(task, seed, 0)
+            traj = sim.demonstrate()
+            secs.append(time.perf_counter() - t0)
+            demo_ok += traj.success
+            frames.append(len(traj.gripper_open))
+            if not traj.success:
+                failures.append(f"s{seed}: demo ({sim.last_demo_error or 'not solved'})")
+            if args.no_replay:
+                continue
+            actions = demo_key_actions(traj, sim.workspace)
+            keys.append(len(actions))
+            ok, err = replay(sim, task, seed, 0, actions)
+            replay_ok += ok
+            if traj.success and not ok:
+                failures.append(f"s{seed}: replay ({err or 'not solved'})")
+            ok_raw, _ = replay(sim, task, seed, 0, demo_key_actions(traj))
+            raw_ok += ok_raw
+        n = args.seeds
+        rep = "-" if args.no_replay else f"{replay_ok}/{n}"
+        raw = "-" if args.no_replay else f"{raw_ok}/{n}"
+        mean_keys = f"{np.mean(keys):.1f}" if keys else "-"
+        print(f"{task:<18} {demo_ok:>4}/{n:<4} {rep:>10} {raw:>11} {np.mean(frames):>7.1f} {mean_keys:>5} {np.mean(secs):>7.2f}")
+        for line in failures:
+            print(f"    {line}")
+    sim.close()
+
+
+if __name__ == "__main__":
+    main()

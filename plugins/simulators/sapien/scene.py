@@ -1,0 +1,63 @@
+"""The fixed part of the world: physics scene, floor, table, lights, robot and cameras."""
+
+from __future__ import annotations
+
+import numpy as np
+import sapien
+
+from .cameras import CAMERA_NAMES, Cameras
+from .robot import Panda
+
+TABLE_TOP_Z = 0.75
+#: the table: x from -0.55 to 0.85, y from -0.7 to 0.7, top at 0.75 m
+TABLE_HALF = (0.70, 0.70, TABLE_TOP_Z / 2)
+TABLE_CENTRE = (0.15, 0.0, TABLE_TOP_Z / 2)
+ROBOT_BASE = (-0.35, 0.0, TABLE_TOP_Z)
+#: (low, high) corner of the box the 100^3 text grid covers (the upstream AGNOSTOS grid)
+WORKSPACE = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
+
+
+class World:
+    """One live SAPIEN scene; task objects come and go, everything here stays."""
+
+    def __init__(
+        self,
+        physics_hz: float = 200.0,
+        image_size: int | tuple[int, int] = 128,
+        cameras=CAMERA_NAMES,
+        render: bool = True,
+    ):
+        self.scene = sapien.Scene()
+        self.scene.set_timestep(1.0 / physics_hz)
+        self._build_static()
+        if render:
+            self._build_lights()
+        self.robot = Panda(self.scene, sapien.Pose(ROBOT_BASE))
+        self.cameras = (
+            Cameras(self.scene, list(cameras), image_size, {l.name: l for l in self.robot.links}) if render else None
+        )
+        self.static_ids = {self.table.per_scene_id, self.ground.per_scene_id}
+
+    def _build_static(self) -> None:
+        floor = sapien.render.RenderMaterial(base_color=[0.45, 0.42, 0.40, 1.0])
+        self.ground = self.scene.add_ground(0.0, render_material=floor)
+        builder = self.scene.create_actor_builder()
+        half = np.array(TABLE_HALF)
+        builder.add_box_collision(half_size=half)
+        wood = sapien.render.RenderMaterial(base_color=[0.72, 0.58, 0.42, 1.0], roughness=0.8)
+        builder.add_box_visual(half_size=half, material=wood)
+        builder.set_initial_pose(sapien.Pose(TABLE_CENTRE))
+        self.table = builder.build_static(name="table")
+
+    def _build_lights(self) -> None:
+        self.scene.set_ambient_light([0.35, 0.35, 0.35])
+        self.scene.add_directional_light([0.3, 0.4, -1.0], [0.55, 0.55, 0.55])
+        self.scene.add_directional_light([-0.5, -0.2, -0.6], [0.25, 0.25, 0.25])
+        self.scene.add_point_light([0.6, 0.0, 2.0], [0.6, 0.6, 0.6])
+
+    def render(self, names=None):
+        """Pictures of the named cameras (all by default) at the current state."""
+        if self.cameras is None:
+            raise RuntimeError("this simulator was created with render=False")
+        self.scene.update_render()
+        return self.cameras.capture(names)

@@ -1,0 +1,208 @@
+"""SapienSimulator: the xicm Simulator interface over one live SAPIEN scene."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import sapien
+
+from xicm.core.interfaces import Simulator
+from xicm.core.seeding import episode_rng
+from xicm.core.types import KeyAction, Observation, StepOutcome, TaskInfo, Trajectory
+
+from .cameras import CAMERA_NAMES
+from .controller import Controller, MotionLimits, Unreachable
+from .objects import ObjectSet
+from .scene import TABLE_TOP_Z, WORKSPACE, World
+from .tasks import TASKS, get_task
+
+
+class SapienSimulator(Simulator):
+    """AGNOSTOS-style tabletop scenes with a Franka Panda, rendered headless through Vulkan.
+
+    Options:
+        image_size: camera resolution (int for square, or [height, width]).
+        cameras: names of the cameras to render (front, left_shoulder, right_shoulder, overhead, wrist).
+        physics_hz: physics steps per second of simulated time.
+        control_hz: control / recording frame rate (RLBench uses 20 Hz).
+        sample_variations: pick a random variation per episode for tasks that have several
+            (False: always variation 0, what the unseen tasks are evaluated on).
+        render: False builds a physics-only simulator (observe() is then unavailable).
+        lin_speed, joint_speed: TCP (m/s) and joint (rad/s) speed limits of a move.
+    """
+
+    workspace = WORKSPACE
+
+    def __init__(
+        self,
+        image_size: int | list[int] = 128,
+        cameras=CAMERA_NAMES,
+        physics_hz: float = 200.0,
+        control_hz: float = 20.0,
+        sample_variations: bool = True,
+        render: bool = True,
+        lin_speed: float = 0.35,
+        joint_speed: float = 1.3,
+    ):
+        if not isinstance(image_size, int):  # [height, width] (a list, tuple or OmegaConf ListConfig)
+            image_size = tuple(int(v) for v in image_size)
+        cameras = tuple(str(c) for c in cameras)
+        self.world = World(physics_hz=float(physics_hz), image_size=image_size, cameras=cameras, render=bool(render))
+        self.robot = self.world.robot
+        self.objects = ObjectSet(self.world.scene)
+        self.controller = Controller(
+            self.world.scene,
+            self.robot,
+            physics_hz,
+            control_hz,
+            MotionLimits(lin_speed=lin_speed, joint_speed=joint_speed),
+        )
+        self.sample_variations = bool(sample_variations)
+        self.task = None
+        self.task_name: str | None = None
+        self.seed = self.episode = None
+        self.timings: dict[str, float] = {}
+
+    # --- catalogue -------------------------------------------------------------------------
+    def task_names(self) -> list[str]:
+        return sorted(TASKS)
+
+    def task_info(self, task: str) -> TaskInfo:
+        return get_task(task).info()
+
+    # --- episodes --------------------------------------------------------------------------
+    def reset(self, task: str, seed: int, episode: int) -> Observation:
+        self.reset_state(task, seed, episode)
+        return self.observe()
+
+    def reset_state(self, task: str, seed: int, episode: int) -> None:
+        """reset() without rendering (physics-only work such as collecting trajectories)."""
+        t0 = time.perf_counter()
+        cls = get_task(task).load_class()
+        self.objects.clear()
+        self.robot.reset()
+        self.task = cls(self.world, self.objects)
+        self.task.load()
+        self.task.initialise(episode_rng(seed, task, episode), self.sample_variations)
+        self.task_name, self.seed, self.episode = task, int(seed), int(episode)
+        self.controller.on_frame = self.task.on_frame
+        self.controller.recorder = None
+        # let objects settle under gravity before the episode starts
+        for _ in range(self.controller.substeps * 2):
+            self.world.scene.step()
+        self.robot.reset()
+        self.controller.reset()
+        self.timings["reset"] = time.perf_counter() - t0
+
+    def _require_task(self) -> None:
+        if self.task is None:
+            raise RuntimeError("call reset(task, seed, episode) first")
+
+    def object_names(self) -> list[str]:
+        self._require_task()
+        return list(getattr(self.task, "episode_object_names", self.task.object_names))
+
+    def gripper_action(self) -> KeyAction:
+        pose = self.robot.tcp_pose()
+        q = np.asarray(pose.q, dtype=float)
+        if q[0] < 0:
+            q = -q
+        return KeyAction(tuple(float(v) for v in pose.p), tuple(float(v) for v in q), self.robot.gripper_open)
+
+    def observe(self) -> Observation:
+        self._require_task()
+        t0 = time.perf_counter()
+        frames = self.world.render()
+        self.timings["render"] = time.perf_counter() - t0
+        return Observation(
+            instruction=self.task.episode_instruction,
+            cameras=frames,
+            segment_names=dict(self.objects.segment_names),
+            object_names=self.object_names(),
+            gripper=self.gripper_action(),
+            joint_positions=self.robot.qpos.copy(),
+        )
+
+    def object_positions(self) -> dict[str, tuple[float, float, float]]:
+        """True world centre of every named object (mean of its links' bounding-box centres)."""
+        self._require_task()
+        out: dict[str, list[np.ndarray]] = {}
+        entities = {e.per_scene_id: e for e in self.world.scene.entities}
+        for sid, name in self.objects.segment_names.items():
+            ent = entities.get(sid)
+            if ent is None:
+                continue
+            body = ent.find_component_by_type(sapien.physx.PhysxRigidBaseComponent)
+            if body is None or not body.collision_shapes:
+                continue
+            lo, hi = body.compute_global_aabb_tight()
+            out.setdefault(name, []).append((np.asarray(lo) + np.asarray(hi)) / 2)
+        return {n: tuple(float(v) for v in np.mean(c, axis=0)) for n, c in out.items()}
+
+    # --- acting ----------------------------------------------------------------------------
+    def check_pose(self, action: KeyAction) -> str | None:
+        """Why the pose cannot be a target (one sentence), or None."""
+        p = np.asarray(action.position, dtype=float)
+        q = np.asarray(action.quat_wxyz, dtype=float)
+        if p.shape != (3,) or q.shape != (4,) or not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
+            return "the key action's position or quaternion is not a finite 3-vector / 4-vector"
+        if np.linalg.norm(q) < 1e-6:
+            return "the key action's quaternion has zero length"
+        lo, hi = (np.asarray(v) for v in self.workspace)
+        if np.any(p < lo - 1e-6) or np.any(p > hi + 1e-6):
+            return f"position {np.round(p, 3).tolist()} lies outside the workspace box {lo.tolist()} to {hi.tolist()}"
+        if p[2] < TABLE_TOP_Z:
+            return f"position {np.round(p, 3).tolist()} is below the table top (z = {TABLE_TOP_Z} m)"
+        return None
+
+    def execute(self, action: KeyAction) -> StepOutcome:
+        try:
+            self._require_task()
+            problem = self.check_pose(action)
+            if problem is not None:
+                return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=problem)
+            q = np.asarray(action.quat_wxyz, dtype=float)
+            target = sapien.Pose(np.asarray(action.position, dtype=float), q / np.linalg.norm(q))
+            try:
+                self.controller.move_to(target)
+            except Unreachable as exc:
+                return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=str(exc))
+            self.controller.set_gripper(bool(action.gripper_open))
+            return StepOutcome(ok=True, success=self.is_success())
+        except Exception as exc:  # noqa: BLE001 - a simulator failure must not crash the run
+            return StepOutcome(False, False, error_kind="sim_error", error_message=f"{type(exc).__name__}: {exc}")
+
+    def is_success(self) -> bool:
+        self._require_task()
+        return bool(self.task.evaluate())
+
+    def demonstrate(self) -> Trajectory:
+        self._require_task()
+        frames = [self.controller.snapshot()]
+        self.controller.recorder = frames
+        error = None
+        try:
+            for action in self.task.demonstration():
+                outcome = self.execute(action)
+                if not outcome.ok:
+                    error = outcome.error_message
+                    break
+        finally:
+            self.controller.recorder = None
+        self.last_demo_error = error
+        return Trajectory(
+            joint_positions=np.array([f.qpos for f in frames]),
+            joint_velocities=np.array([f.qvel for f in frames]),
+            gripper_open=np.array([f.gripper_open for f in frames], dtype=bool),
+            ee_poses=np.array([f.tcp for f in frames]),
+            success=error is None and self.is_success(),
+        )
+
+    def close(self) -> None:
+        if self.task is not None:
+            self.objects.clear()
+        self.task = None
+        self.world = None  # type: ignore[assignment]
+
+

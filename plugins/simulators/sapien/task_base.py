@@ -1,0 +1,115 @@
+"""The base class of SAPIEN tasks.
+
+A task builds its objects (`load`), samples an episode from a seeded generator (`initialise`),
+says whether it is solved (`evaluate`), may watch every control frame (`on_frame`, e.g. for
+"pressed in order" conditions) and yields the key actions of its scripted demonstrator
+(`demonstration`), computed from the true object state and executed by the same controller
+that executes the agent's actions.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar, Iterator
+
+import numpy as np
+import sapien
+
+from xicm.core.types import KeyAction, TaskInfo
+
+from .objects import ObjectSet
+from .robot import GRIPPER_DOWN_WXYZ
+from .scene import World
+
+
+def frame_quat(x_axis, y_axis, z_axis) -> np.ndarray:
+    """Quaternion (w, x, y, z) of the rotation whose columns are the given unit axes."""
+    mat = np.eye(4)
+    mat[:3, :3] = np.stack([x_axis, y_axis, z_axis], axis=1)
+    return np.asarray(sapien.Pose(mat).q, dtype=float)
+
+
+def turn_gripper(quat_wxyz) -> np.ndarray:
+    """The same gripper pose turned 180 degrees about the gripper axis (fingers swapped)."""
+    return np.asarray((sapien.Pose(q=np.asarray(quat_wxyz, dtype=float)) * sapien.Pose(q=[0.0, 0.0, 0.0, 1.0])).q)
+
+
+def needs_turn(quat_wxyz) -> bool:
+    """Whether `turn_gripper` gives the wrist-friendlier of the two equivalent grasps.
+
+    The friendlier one has its hand x axis leaning towards world +x / +z (at the start pose
+    hand x is world +x), which keeps the Panda's last joint near the middle of its range.
+    Decide once per demonstration and apply it to every pose, so the wrist never flips mid-way.
+    """
+    x_axis = sapien.Pose(q=np.asarray(quat_wxyz, dtype=float)).to_transformation_matrix()[:3, 0]
+    return bool(x_axis[0] + x_axis[2] < 0)
+
+
+def wrist_friendly(quat_wxyz) -> np.ndarray:
+    """The wrist-friendlier of a gripper orientation and its 180-degree turn (see needs_turn)."""
+    return turn_gripper(quat_wxyz) if needs_turn(quat_wxyz) else np.asarray(quat_wxyz, dtype=float)
+
+
+class Task:
+    name: ClassVar[str]
+    split: ClassVar[str]  # 'seen', 'level1' or 'level2'
+    #: instruction of variation 0 (what unseen tasks are evaluated on)
+    instruction: ClassVar[str]
+    #: the objects described to the LLM, in prompt order
+    object_names: ClassVar[tuple[str, ...]]
+
+    def __init__(self, world: World, objects: ObjectSet):
+        self.world = world
+        self.objects = objects
+        self.variation = 0
+        self.episode_instruction = self.instruction
+
+    @classmethod
+    def info(cls) -> TaskInfo:
+        return TaskInfo(cls.name, cls.split, cls.instruction, tuple(cls.object_names))
+
+    # --- to implement ----------------------------------------------------------------------
+    def load(self) -> None:
+        """Create the task's objects in the scene (register them in self.objects)."""
+        raise NotImplementedError
+
+    def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
+        """Place the objects and pick the variation for one episode."""
+        raise NotImplementedError
+
+    def evaluate(self) -> bool:
+        """Whether the task is solved in the current state."""
+        raise NotImplementedError
+
+    def on_frame(self) -> None:
+        """Called after every control frame (override to track events)."""
+
+    def demonstration(self) -> Iterator[KeyAction]:
+        """Key actions of the scripted demonstrator, computed from the true state as it goes."""
+        raise NotImplementedError
+
+    # --- helpers ---------------------------------------------------------------------------
+    @staticmethod
+    def key(position, quat_wxyz=GRIPPER_DOWN_WXYZ, gripper_open: bool = True) -> KeyAction:
+        p = np.asarray(position, dtype=float)
+        q = np.asarray(quat_wxyz, dtype=float)
+        q = q / np.linalg.norm(q)
+        return KeyAction(tuple(float(v) for v in p), tuple(float(v) for v in q), bool(gripper_open))
+
+    @staticmethod
+    def world_point(pose: sapien.Pose, local) -> np.ndarray:
+        return np.asarray((pose * sapien.Pose(local)).p, dtype=float)
+
+    def grasped(self) -> set[int]:
+        """Entity ids that both fingers currently touch (what the gripper is holding)."""
+        fingers = [f.entity for f in self.world.robot.fingers]
+        touched: list[set[int]] = [set(), set()]
+        for contact in self.world.scene.get_contacts():
+            ents = [contact.bodies[0].entity, contact.bodies[1].entity]
+            if not any(abs(p.impulse).sum() > 1e-6 for p in contact.points):
+                continue
+            for k, finger in enumerate(fingers):
+                if ents[0] is finger:
+                    touched[k].add(ents[1].per_scene_id)
+                elif ents[1] is finger:
+                    touched[k].add(ents[0].per_scene_id)
+        return touched[0] & touched[1]
