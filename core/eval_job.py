@@ -104,7 +104,9 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
             summary = write_report(rows, splits, tasks, out_dir)
             _track_summary(tracker, summary)
         finally:
-            tracker.finish()
+            note = tracker.finish()
+            if note:
+                print(note)
     finally:
         simulator.close()
     return summary

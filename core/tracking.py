@@ -24,6 +24,7 @@ class Tracker:
             config=config,
             tags=tags or [],
             reinit="finish_previous",
+            settings=wandb.Settings(silent=True),
         )
 
     @property
@@ -42,7 +43,12 @@ class Tracker:
         if self._run is not None:
             self._run.summary.update(values)
 
-    def finish(self) -> None:
-        if self._run is not None:
-            self._run.finish()
-            self._run = None
+    def finish(self) -> str | None:
+        """End the run; returns a one-line note on where it is (None when disabled)."""
+        if self._run is None:
+            return None
+        mode = self._run.settings.mode
+        where = str(self._run.settings.sync_dir)
+        self._run.finish()
+        self._run = None
+        return f"wandb ({mode}): {where}" + (" (upload with `wandb sync` on that folder)" if mode == "offline" else "")

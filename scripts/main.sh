@@ -7,4 +7,4 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 export HF_HUB_OFFLINE=1 TRANSFORMERS_OFFLINE=1
 .venv/bin/xicm-collect benchmark=smoke collect.demos_per_task=5
-.venv/bin/xicm-eval benchmark=smoke "$@"
+.venv/bin/xicm-eval benchmark=smoke seeds=[0,1] episodes=5 "$@"
