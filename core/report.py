@@ -81,6 +81,11 @@ def summarise(rows: Sequence[dict[str, Any]], splits: dict[str, str], task_order
 
 
 def markdown_table(summary: dict[str, Any]) -> str:
+    one_seed = len(summary["seeds"]) < 2  # no spread to show
+
+    def std(value: float) -> str:
+        return "-" if one_seed else f"{value:.1f}"
+
     lines = [
         "| task | split | success % | std | n | 95% CI | errors |",
         "|---|---|---:|---:|---:|---|---|",
@@ -88,11 +93,11 @@ def markdown_table(summary: dict[str, Any]) -> str:
     for r in summary["tasks"]:
         errs = ", ".join(f"{k} {v}" for k, v in sorted(r["errors"].items())) or "-"
         lines.append(
-            f"| {r['task']} | {r['split']} | {r['success']:.1f} | {r['std']:.1f} | {r['n']} "
+            f"| {r['task']} | {r['split']} | {r['success']:.1f} | {std(r['std'])} | {r['n']} "
             f"| {r['ci_low']:.0f}-{r['ci_high']:.0f} | {errs} |"
         )
     for g in summary["groups"]:
-        lines.append(f"| **{g['group']}** ({g['tasks']} tasks) | | **{g['success']:.1f}** | {g['std']:.1f} | | | |")
+        lines.append(f"| **{g['group']}** ({g['tasks']} tasks) | | **{g['success']:.1f}** | {std(g['std'])} | | | |")
     lines.append("")
     lines.append(f"{summary['episodes']} episodes, seeds {summary['seeds']}; std is over seeds.")
     return "\n".join(lines)
