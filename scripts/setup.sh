@@ -15,12 +15,15 @@ if [ ! -x .venv/bin/python ]; then
   "$PYTHON" -m venv .venv
 fi
 PIP=(.venv/bin/python -m pip install --quiet --disable-pip-version-check)
+pip_install() {  # pip, minus the warnings about this machine's extra local indexes
+  "${PIP[@]}" "$@" 2> >(grep -v "^WARNING: Location 'file:" >&2)
+}
 
 if ! .venv/bin/python -c "import torch" 2>/dev/null; then
   echo "[setup] installing ${XICM_TORCH_SPEC:-torch==2.13.0}"
   # shellcheck disable=SC2086
-  "${PIP[@]}" ${XICM_TORCH_SPEC:-torch==2.13.0}
+  pip_install ${XICM_TORCH_SPEC:-torch==2.13.0}
 fi
 echo "[setup] installing xicm[all]"
-"${PIP[@]}" -e ".[all]"
+pip_install -e ".[all]"
 echo "[setup] done: $(.venv/bin/python -c 'import xicm, torch, sapien; print("xicm", xicm.__version__, "| torch", torch.__version__, "| sapien", sapien.__version__)')"

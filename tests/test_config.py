@@ -89,3 +89,9 @@ def test_config_resolves_without_hydra_runtime_except_run_name():
     container = OmegaConf.to_container(cfg, resolve=False)
     container.pop("run_name")
     assert OmegaConf.create(container).pool_path.endswith("pools/smoke.h5")
+
+
+def test_cli_malformed_override_is_reported(tmp_path):
+    out = _cli("seeds=[0,", cwd=tmp_path)
+    assert out.returncode != 0
+    assert "no viable alternative at input '[0,'" in out.stderr and "Traceback" not in out.stderr

@@ -29,3 +29,30 @@ def test_entry_points_name_existing_modules():
     for module in eps.values():
         rel = module.removeprefix("xicm.").replace(".", "/")
         assert (ROOT / f"{rel}.py").exists() or (ROOT / rel / "__init__.py").exists(), module
+
+
+def test_a_wheel_install_carries_configs_assets_and_plugins(tmp_path):
+    """Build the wheel, install it into a bare folder and compose the config from there."""
+    import subprocess
+    import sys
+    import zipfile
+
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(tmp_path), str(ROOT)], check=True)
+    wheel = next(tmp_path.glob("xicm-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    assert "xicm/conf/config.yaml" in names and "xicm/conf/llm/gemma3_270m.yaml" in names
+    assert any(n.startswith("xicm/plugins/simulators/sapien/assets/panda/") and n.endswith(".urdf") for n in names)
+    assert not any(n.startswith(("xicm/tests/", "xicm/.venv/")) for n in names)
+    target = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target), str(wheel)], check=True)
+    code = (
+        "import xicm, xicm.core.plugins as p; from hydra import compose, initialize_config_module;"
+        "initialize_config_module(config_module='xicm.conf', version_base='1.3').__enter__();"
+        "cfg = compose('config', overrides=['llm=gemma3_270m']);"
+        "print(xicm.__file__); print(cfg.llm.name); print(','.join(p.get_registry().names('task')))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env={"PYTHONPATH": str(target), "PATH": ""}, check=True)
+    lines = out.stdout.splitlines()
+    assert lines[0].startswith(str(target)), lines[0]
+    assert lines[1] == "transformers_local"
+    assert "close_microwave" in lines[2].split(",")
