@@ -31,7 +31,6 @@ def main() -> None:
     from xicm.core import build
     from xicm.core.agent import XICMAgent
     from xicm.core.dataset import load_pool
-    from xicm.core.eval_job import _build_llm
     from xicm.core.plugins import get_registry
 
     reg = get_registry()
@@ -44,7 +43,7 @@ def main() -> None:
     retriever.prepare(pool)
     t_prepare = time.perf_counter() - t0
     t0 = time.perf_counter()
-    llm = _build_llm(cfg, reg)
+    llm = build.build_llm(cfg, reg)
     t_llm_load = time.perf_counter() - t0
     agent = XICMAgent(
         sim, reg.create("detector", build.options(cfg, "detector")), retriever,

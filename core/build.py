@@ -64,3 +64,13 @@ def build_encoder(cfg: DictConfig, registry: Registry):
 
 def build_retriever(cfg: DictConfig, registry: Registry, encoder):
     return registry.create("retriever", options(cfg, "retriever"), encoder=encoder)
+
+
+def build_llm(cfg: DictConfig, registry: Registry):
+    """The configured LLM, behind the SQLite response cache when it decodes deterministically."""
+    llm = registry.create("llm", options(cfg, "llm"))
+    if cfg.llm_cache.enabled and getattr(llm, "deterministic", False):
+        from xicm.core.llm_cache import CachedLLM
+
+        llm = CachedLLM(llm, cfg.llm_cache.path)
+    return llm

@@ -73,7 +73,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         encoder = build.build_encoder(cfg, registry)
         retriever = build.build_retriever(cfg, registry, encoder)
         retriever.prepare(pool)
-        llm = _build_llm(cfg, registry)
+        llm = build.build_llm(cfg, registry)
         agent = XICMAgent(
             simulator=simulator,
             detector=registry.create("detector", build.options(cfg, "detector")),
@@ -110,15 +110,6 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     finally:
         simulator.close()
     return summary
-
-
-def _build_llm(cfg: DictConfig, registry):
-    llm = registry.create("llm", build.options(cfg, "llm"))
-    if cfg.llm_cache.enabled and getattr(llm, "deterministic", False):
-        from xicm.core.llm_cache import CachedLLM
-
-        llm = CachedLLM(llm, cfg.llm_cache.path)
-    return llm
 
 
 def write_report(rows: list[dict[str, Any]], splits: dict[str, str], tasks: list[str], out_dir: Path) -> dict[str, Any]:

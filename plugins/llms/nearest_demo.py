@@ -60,7 +60,9 @@ def reanchor(demo: Demo, query: Query) -> list[KeyAction]:
 class NearestDemoLLM(LLM):
     """Replays the best retrieved demo re-anchored on the query objects; needs no model."""
 
-    deterministic = True
+    # Its reply depends on the exact object positions, not only on the prompt text (which
+    # rounds them to 1 cm), so the message-keyed response cache must never answer for it.
+    deterministic = False
 
     def __init__(self, demo_rank: int = 0):
         self.demo_rank = int(demo_rank)
