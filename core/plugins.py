@@ -94,7 +94,14 @@ class Registry:
         if "name" not in options:
             raise UnknownPluginError(f"the {kind} config has no 'name'; available: {', '.join(self.names(kind))}")
         reg = self.get(kind, options.pop("name"))
-        return reg.factory(**options, **deps)
+        try:
+            return reg.factory(**options, **deps)
+        except TypeError as exc:
+            if "unexpected keyword argument" not in str(exc):
+                raise
+            from xicm.core.errors import ConfigError
+
+            raise ConfigError(f"{kind} '{reg.name}' got an option it does not take: {exc}") from None
 
 
 def make_plugin_manager(load_entry_points: bool = True) -> pluggy.PluginManager:

@@ -94,3 +94,10 @@ def test_core_and_plugin_modules_import_no_heavy_library():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == ""
+
+
+def test_an_option_the_plugin_does_not_take_is_a_config_error(registry):
+    from xicm.core.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="detector 'oracle' got an option it does not take: .*colour"):
+        registry.create("detector", {"name": "oracle", "colour": "red"})
