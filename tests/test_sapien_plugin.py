@@ -21,7 +21,10 @@ def test_importing_the_plugin_does_not_import_sapien():
 def test_registry_has_simulator_and_tasks():
     registry = plugins.Registry(plugins.make_plugin_manager())
     assert "sapien" in registry.names("simulator")
-    for name in ("open_drawer", "push_buttons", "close_microwave"):
+    from xicm.plugins.simulators.sapien.tasks import TASKS
+
+    assert {"open_drawer", "push_buttons", "close_microwave"} <= set(TASKS)
+    for name in TASKS:
         reg = registry.get("task", name)
         assert reg.extra == {"simulator": "sapien"}
         assert reg.factory.info().name == name
@@ -38,11 +41,12 @@ def test_task_table_matches_the_task_classes():
         for part in ("Task description:", "Randomisations:", "Success conditions:"):
             assert part in doc, f"{name}: docstring lacks '{part}'"
     splits = {name: ref.split for name, ref in TASKS.items()}
-    assert splits == {"open_drawer": "seen", "push_buttons": "seen", "close_microwave": "level1"}
+    assert set(splits.values()) <= {"seen", "level1", "level2"}
+    assert splits["open_drawer"] == "seen" and splits["close_microwave"] == "level1"
 
 
 def test_unknown_task_names_the_available_ones():
     from xicm.plugins.simulators.sapien.tasks import get_task
 
-    with pytest.raises(KeyError, match="available: close_microwave, open_drawer, push_buttons"):
+    with pytest.raises(KeyError, match="unknown task 'make_tea'; available: close_jar, close_microwave, "):
         get_task("make_tea")

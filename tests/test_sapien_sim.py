@@ -13,18 +13,25 @@ import pytest
 
 pytest.importorskip("sapien")
 
+from xicm.core.parsing import MAX_ACTIONS  # noqa: E402
 from xicm.core.types import KeyAction  # noqa: E402
 from xicm.plugins.simulators.sapien.replay import demo_key_actions, replay  # noqa: E402
+from xicm.plugins.simulators.sapien.tasks import TASKS as TASK_TABLE  # noqa: E402
 
-TASKS = ["open_drawer", "push_buttons", "close_microwave"]
+TASKS = list(TASK_TABLE)  # every registered task gets the generic tests
+# Free objects settle for a few physics steps at reset; PhysX's solver caches make those
+# steps repeat to ~1e-4 m (not bit-exactly) once the scene has run other episodes.
+SETTLE_TOL = 1e-3
 
 
 def scene_state(sim) -> np.ndarray:
-    """Root poses and joint positions of every task articulation."""
+    """Root poses and joint positions of every task articulation, and poses of free objects."""
     parts = []
     for art in sim.objects.articulations:
         pose = art.get_root_pose()
         parts.append(np.concatenate([pose.p, pose.q, art.get_qpos()]))
+    for actor in sim.objects.actors:
+        parts.append(np.concatenate([actor.pose.p, actor.pose.q]))
     return np.concatenate(parts)
 
 
@@ -38,11 +45,12 @@ def test_seeded_reset_is_reproducible(sim, task):
     sim.reset_state(task, 7, 1)
     other_episode = scene_state(sim)
     again = sim.reset(task, 7, 0)
-    assert np.array_equal(a, scene_state(sim))
+    np.testing.assert_allclose(a, scene_state(sim), rtol=0, atol=SETTLE_TOL)
     assert first.instruction == again.instruction
-    assert np.array_equal(first.cameras["front"].rgb, again.cameras["front"].rgb)
-    assert not np.allclose(a, other_seed)
-    assert not np.allclose(a, other_episode)
+    diff = np.abs(first.cameras["front"].rgb.astype(int) - again.cameras["front"].rgb.astype(int))
+    assert np.mean(diff > 8) < 0.01  # at most a few edge pixels move with sub-mm settling
+    assert not np.allclose(a, other_seed, atol=SETTLE_TOL)
+    assert not np.allclose(a, other_episode, atol=SETTLE_TOL)
 
 
 def test_same_seed_gives_the_same_scene_in_another_process(sim):
@@ -54,14 +62,15 @@ def test_same_seed_gives_the_same_scene_in_another_process(sim):
         f"for task in {TASKS!r}:\n"
         "    sim.reset_state(task, 7, 0)\n"
         "    out[task] = [a.get_root_pose().p.tolist() + a.get_root_pose().q.tolist() + a.get_qpos().tolist()"
-        " for a in sim.objects.articulations]\n"
+        " for a in sim.objects.articulations]"
+        " + [e.pose.p.tolist() + e.pose.q.tolist() for e in sim.objects.actors]\n"
         "print(json.dumps(out))\n"
     )
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     theirs = json.loads(run.stdout.strip().splitlines()[-1])
     for task in TASKS:
         sim.reset_state(task, 7, 0)
-        np.testing.assert_allclose(np.concatenate(theirs[task]), scene_state(sim), rtol=0, atol=1e-6)
+        np.testing.assert_allclose(np.concatenate(theirs[task]), scene_state(sim), rtol=0, atol=SETTLE_TOL)
 
 
 # ------------------------------------------------------------------ success checks
@@ -183,7 +192,8 @@ def test_quantised_key_actions_of_a_demo_replay(sim, task):
         sim.reset_state(task, seed, 0)
         traj = sim.demonstrate()
         actions = demo_key_actions(traj, sim.workspace)
-        assert 2 <= len(actions) <= 12
+        # one LLM reply holds at most MAX_ACTIONS actions; longer demos need a re-query
+        assert 2 <= len(actions) <= 2 * MAX_ACTIONS
         ok, err = replay(sim, task, seed, 0, actions)
         assert ok, (seed, err)
 
