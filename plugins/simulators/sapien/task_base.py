@@ -113,3 +113,35 @@ class Task:
                 elif ents[1] is finger:
                     touched[k].add(ents[0].per_scene_id)
         return touched[0] & touched[1]
+
+
+def snap_to_grid(p) -> np.ndarray:
+    """The centre of the text-grid voxel holding p: a key pose there survives the 7-integer text exactly."""
+    from xicm.core import encoding
+
+    from .scene import WORKSPACE
+
+    return np.asarray(encoding.voxel_to_position(encoding.position_to_voxel(p, WORKSPACE), WORKSPACE))
+
+
+def quantised(action: KeyAction) -> KeyAction:
+    """The action as the LLM sees it (1 cm, 5 degree bins), so a demo replays exactly."""
+    from xicm.core import encoding
+
+    from .scene import WORKSPACE
+
+    return encoding.quantise(action, WORKSPACE)
+
+
+def down_quat(theta: float) -> np.ndarray:
+    """Gripper pointing straight down with its x axis at yaw `theta`."""
+    x = np.array([np.cos(theta), np.sin(theta), 0.0])
+    z = np.array([0.0, 0.0, -1.0])
+    return frame_quat(x, np.cross(z, x), z)
+
+
+def yaw_of(pose: sapien.Pose) -> float:
+    """Rotation of a pose about the world z axis."""
+    m = pose.to_transformation_matrix()
+    return float(np.arctan2(m[1, 0], m[0, 0]))
+

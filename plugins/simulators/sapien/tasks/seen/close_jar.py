@@ -23,11 +23,10 @@ from __future__ import annotations
 import numpy as np
 import sapien
 
-from xicm.core import encoding
 
 from ...objects import add_box, add_cylinder, look, physical, yaw_pose
-from ...scene import TABLE_TOP_Z, WORKSPACE
-from ...task_base import Task
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, quantised
 
 PALETTE = ("red", "green", "blue", "yellow", "orange", "purple", "cyan", "white")
 JAR_R, JAR_H = 0.035, 0.08  # jar body
@@ -35,11 +34,6 @@ NECK_R, NECK_H = 0.027, 0.012  # the threaded neck on top of the body
 JAR_TOP = JAR_H + NECK_H  # height of the jar's mouth above the table
 LID_R, LID_H = 0.029, 0.025  # the lid: 5.8 cm across, lifted by its rim
 SPAWN_X, SPAWN_Y, MIN_GAP = (0.02, 0.34), (-0.26, 0.26), 0.13
-
-
-def snap(action):
-    """The key action on the 1 cm / 5 degree text grid (its quantised replay is the same pose)."""
-    return encoding.quantise(action, WORKSPACE)
 
 
 def sample_spots(rng: np.random.Generator, count: int, xs, ys, gap: float) -> list[np.ndarray]:
@@ -115,15 +109,15 @@ class CloseJar(Task):
     def demonstration(self):
         lid = np.asarray(self.lid.pose.p, dtype=float)
         grasp = lid + [0.0, 0.0, LID_H / 2 - 0.012]  # fingertips 3.5 mm above the table
-        yield snap(self.key(grasp + [0, 0, 0.10], gripper_open=True))
-        yield snap(self.key(grasp, gripper_open=False))
+        yield quantised(self.key(grasp + [0, 0, 0.10], gripper_open=True))
+        yield quantised(self.key(grasp, gripper_open=False))
         # where the lid sits in the hand now decides where the hand goes
         tcp = np.asarray(self.world.robot.tcp_pose().p, dtype=float)
         in_hand = tcp - np.asarray(self.lid.pose.p, dtype=float)
         mouth = np.asarray(self.target_jar.pose.p, dtype=float) + [0.0, 0.0, JAR_TOP]
         place = mouth + [0.0, 0.0, LID_H / 2 + 0.007] + in_hand  # lid's underside 7 mm above the mouth
         carry = max(place[2], grasp[2]) + 0.08
-        yield snap(self.key([*grasp[:2], carry], gripper_open=False))
-        yield snap(self.key([*place[:2], carry], gripper_open=False))
-        yield snap(self.key(place, gripper_open=True))
-        yield snap(self.key(place + [0, 0, 0.08], gripper_open=True))
+        yield quantised(self.key([*grasp[:2], carry], gripper_open=False))
+        yield quantised(self.key([*place[:2], carry], gripper_open=False))
+        yield quantised(self.key(place, gripper_open=True))
+        yield quantised(self.key(place + [0, 0, 0.08], gripper_open=True))

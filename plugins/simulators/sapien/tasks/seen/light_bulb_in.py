@@ -23,8 +23,8 @@ import numpy as np
 import sapien
 
 from ...objects import add_box, add_cylinder, look, physical
-from ...scene import TABLE_TOP_Z, WORKSPACE
-from ...task_base import Task, frame_quat
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, down_quat, snap_to_grid
 
 COLOURS = ("red", "green")
 BASE_R, BASE_H = 0.011, 0.022  # the bulb's screw base
@@ -34,19 +34,6 @@ HOLDER_H = 0.03  # holder stand height (the ring sits on it)
 LAMP_H = 0.12  # lamp column height (the socket sits on it)
 GRIP_Z = BASE_H + GLASS_H / 2  # grasp height above the bulb's bottom
 SOCKET_BOTTOM, SOCKET_TOP = BASE_R + 0.0015, 0.022  # the lamp socket's inner radius at its floor and rim
-GRID = 0.01
-
-
-def snap(p) -> np.ndarray:
-    """The text-grid cell centre nearest to p: key poses the 7-integer text reproduces exactly."""
-    lo = np.asarray(WORKSPACE[0])
-    return lo + (np.floor((np.asarray(p, dtype=float) - lo) / GRID) + 0.5) * GRID
-
-
-def down_quat(theta: float) -> np.ndarray:
-    x = np.array([np.cos(theta), np.sin(theta), 0.0])
-    z = np.array([0.0, 0.0, -1.0])
-    return frame_quat(x, np.cross(z, x), z)
 
 
 def add_ring(builder, z0: float, colour, r_bottom: float = RING_IN, r_top: float = RING_IN) -> None:
@@ -136,20 +123,20 @@ class LightBulbIn(Task):
     def demonstration(self):
         bulb = self.bulbs[self.variation]
         q0 = down_quat(0.0)
-        grasp = snap(np.asarray(bulb.pose.p) + [0, 0, GRIP_Z])
+        grasp = snap_to_grid(np.asarray(bulb.pose.p) + [0, 0, GRIP_Z])
         yield self.key(grasp + [0, 0, 0.10], q0, True)
         yield self.key(grasp, q0, False)
         held = np.asarray(self.world.robot.tcp_pose().p) - np.asarray(bulb.pose.p)  # bulb bottom -> TCP
         socket = self.socket_floor()
         lift = socket[2] + RING_H + 0.04 + held[2]  # bulb bottom 4 cm above the socket's rim
-        yield self.key(snap([grasp[0], grasp[1], lift]), q0, False)
-        above = snap([socket[0] + held[0], socket[1] + held[1], lift])
+        yield self.key(snap_to_grid([grasp[0], grasp[1], lift]), q0, False)
+        above = snap_to_grid([socket[0] + held[0], socket[1] + held[1], lift])
         yield self.key(above, q0, False)
         # measured again over the socket (the bulb may hang a little tilted), then straight down
         held = np.asarray(self.world.robot.tcp_pose().p) - np.asarray(bulb.pose.p)
-        above = snap([socket[0] + held[0], socket[1] + held[1], lift])
+        above = snap_to_grid([socket[0] + held[0], socket[1] + held[1], lift])
         # screw base pressed onto the socket floor (up to 9 mm further down on the grid: the bulb
         # then slides up in the fingers; it never drops in from above)
-        inserted = snap([above[0], above[1], socket[2] + held[2] - 0.004])
+        inserted = snap_to_grid([above[0], above[1], socket[2] + held[2] - 0.004])
         yield self.key(inserted, q0, False)
         yield self.key(inserted, q0, True)  # let go (and stay: lifting the open fingers could drag the bulb)

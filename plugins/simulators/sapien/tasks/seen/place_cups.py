@@ -23,8 +23,8 @@ import numpy as np
 import sapien
 
 from ...objects import add_box, add_cylinder, physical, yaw_pose
-from ...scene import TABLE_TOP_Z, WORKSPACE
-from ...task_base import Task, frame_quat
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, down_quat, snap_to_grid, yaw_of
 
 COLOURS = ("red", "green", "blue")
 MUG_R, MUG_H = 0.026, 0.08
@@ -39,25 +39,7 @@ SPOKE_TILT = np.deg2rad(15.0)
 #: spokes: (direction yaw, height above the table, yaw of the handle of a mug hung on it)
 SPOKES = ((np.pi / 2, 0.13, np.pi), (np.pi, 0.17, -np.pi / 2), (-np.pi / 2, 0.21, 0.0))
 GRIP_DOWN = 0.012  # TCP this far below the mug's rim
-GRID = 0.01
 STEP = np.deg2rad(5.0)
-
-
-def snap(p) -> np.ndarray:
-    """The text-grid cell centre nearest to p: key poses the 7-integer text reproduces exactly."""
-    lo = np.asarray(WORKSPACE[0])
-    return lo + (np.floor((np.asarray(p, dtype=float) - lo) / GRID) + 0.5) * GRID
-
-
-def down_quat(theta: float) -> np.ndarray:
-    x = np.array([np.cos(theta), np.sin(theta), 0.0])
-    z = np.array([0.0, 0.0, -1.0])
-    return frame_quat(x, np.cross(z, x), z)
-
-
-def yaw_of(pose: sapien.Pose) -> float:
-    m = pose.to_transformation_matrix()
-    return float(np.arctan2(m[1, 0], m[0, 0]))
 
 
 def wrist(theta: float) -> float:
@@ -164,12 +146,12 @@ class PlaceCups(Task):
             )
             theta_g = float(np.round(wrist(psi0 + a) / STEP) * STEP)
             top = np.asarray(mug.pose.p) + [0, 0, MUG_H - GRIP_DOWN]
-            grasp = snap(top)
+            grasp = snap_to_grid(top)
             yield self.key(grasp + [0, 0, 0.10], down_quat(theta_g), True)
             yield self.key(grasp, down_quat(theta_g), False)
             held = self.world.robot.tcp_pose().inv() * mug.pose  # the mug in the hand
             high = TABLE_TOP_Z + POLE_H + 0.06 + MUG_H - GRIP_DOWN
-            yield self.key(snap([grasp[0], grasp[1], high]), down_quat(theta_g), False)
+            yield self.key(snap_to_grid([grasp[0], grasp[1], high]), down_quat(theta_g), False)
 
             # hand yaw that turns the handle to psi_hang (world yaw = hand yaw - in-hand yaw)
             theta = float(np.round(wrist(psi_hang + yaw_of(held)) / STEP) * STEP)
@@ -178,12 +160,12 @@ class PlaceCups(Task):
             spoke = self.spoke_pose(k)
             axis = spoke.to_transformation_matrix()[:3, 0]
             base = np.asarray(spoke.p)
-            outside = snap(base + axis * (SPOKE_L + 0.035) - tcp_to_loop)
-            threaded = snap(base + axis * 0.05 - tcp_to_loop)
-            hung = snap(threaded - [0, 0, 0.012])
+            outside = snap_to_grid(base + axis * (SPOKE_L + 0.035) - tcp_to_loop)
+            threaded = snap_to_grid(base + axis * 0.05 - tcp_to_loop)
+            hung = snap_to_grid(threaded - [0, 0, 0.012])
             yield self.key([outside[0], outside[1], high], q, False)
             yield self.key(outside, q, False)
             yield self.key(threaded, q, False)
             yield self.key(hung, q, True)
             if n < self.count - 1:  # clear of the tree before the next mug; after the last, stay
-                yield self.key(snap(hung + [0, 0, 0.10]), q, True)
+                yield self.key(snap_to_grid(hung + [0, 0, 0.10]), q, True)

@@ -22,8 +22,8 @@ import numpy as np
 import sapien
 
 from ...objects import add_box, add_cylinder, physical, yaw_pose
-from ...scene import TABLE_TOP_Z, WORKSPACE
-from ...task_base import Task, frame_quat
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, down_quat, snap_to_grid, yaw_of
 
 SHAPES = ("cube", "cylinder", "cross", "cuboid")
 COLOURS = {"cube": "red", "cylinder": "green", "cross": "blue", "cuboid": "yellow"}
@@ -39,24 +39,6 @@ SLOT_Y = {"cube": -0.11, "cylinder": -0.037, "cross": 0.037, "cuboid": 0.11}
 CELL = 0.003  # raster of the lid's slots
 GRID = 0.01  # text-grid cell size
 STEP = np.deg2rad(5.0)  # text-grid rotation bin
-
-
-def snap(p) -> np.ndarray:
-    """The text-grid cell centre nearest to p: key poses the 7-integer text reproduces exactly."""
-    lo = np.asarray(WORKSPACE[0])
-    return lo + (np.floor((np.asarray(p, dtype=float) - lo) / GRID) + 0.5) * GRID
-
-
-def down_quat(theta: float) -> np.ndarray:
-    """Gripper pointing down with its hand x axis at yaw `theta` (fingers close across it)."""
-    x = np.array([np.cos(theta), np.sin(theta), 0.0])
-    z = np.array([0.0, 0.0, -1.0])
-    return frame_quat(x, np.cross(z, x), z)
-
-
-def yaw_of(pose: sapien.Pose) -> float:
-    m = pose.to_transformation_matrix()
-    return float(np.arctan2(m[1, 0], m[0, 0]))
 
 
 def near(angle: float, ref: float, period: float) -> float:
@@ -153,10 +135,10 @@ class PlaceShapeInShapeSorter(Task):
         theta_g = near(yaw_of(body.pose), 0.0, period)  # hand x along a shape axis; fingers across it
         theta_g = float(np.round(theta_g / STEP) * STEP)
         q_g = down_quat(theta_g)
-        grasp = snap([body.pose.p[0], body.pose.p[1], TABLE_TOP_Z + SHAPE_H - 0.015])
+        grasp = snap_to_grid([body.pose.p[0], body.pose.p[1], TABLE_TOP_Z + SHAPE_H - 0.015])
         yield self.key(grasp + [0, 0, 0.10], q_g, True)
         yield self.key(grasp, q_g, False)
-        yield self.key(snap(grasp + [0, 0, SORTER_H + 0.08]), q_g, False)
+        yield self.key(snap_to_grid(grasp + [0, 0, SORTER_H + 0.08]), q_g, False)
 
         held = self.world.robot.tcp_pose().inv() * body.pose  # the shape in the hand
         slot_pose = self.sorter.pose * sapien.Pose([0, SLOT_Y[shape], 0])
@@ -171,7 +153,7 @@ class PlaceShapeInShapeSorter(Task):
         # let go with the shape's bottom 6 mm (1 to 11 mm on the grid) down in its slot, so it
         # cannot turn away from the slot as the fingers open; the fingertips stay above the lid
         drop_z = TABLE_TOP_Z + SORTER_H - 0.006 + SHAPE_H / 2
-        release = snap([slot[0] - offset[0], slot[1] - offset[1], drop_z - offset[2]])
-        yield self.key(snap([release[0], release[1], grasp[2] + SORTER_H + 0.08]), q_r, False)
+        release = snap_to_grid([slot[0] - offset[0], slot[1] - offset[1], drop_z - offset[2]])
+        yield self.key(snap_to_grid([release[0], release[1], grasp[2] + SORTER_H + 0.08]), q_r, False)
         yield self.key(release, q_r, True)
         yield self.key(release + [0, 0, 0.08], q_r, True)

@@ -23,11 +23,10 @@ from __future__ import annotations
 import numpy as np
 import sapien
 
-from xicm.core import encoding
 
 from ...objects import add_box, physical
-from ...scene import TABLE_TOP_Z, WORKSPACE
-from ...task_base import frame_quat, wrist_friendly
+from ...scene import TABLE_TOP_Z
+from ...task_base import frame_quat, quantised, wrist_friendly
 from .open_drawer import (
     DEPTH,
     HANDLE_OUT,
@@ -46,11 +45,6 @@ INNER_D = DEPTH / 2 - WALL - 0.01  # drawer tray half depth
 DRAWER_H = SLOT / 2 - 0.008
 DOWN = np.array([0.0, 1.0, 0.0, 0.0])
 ITEM_X, ITEM_Y = (0.0, 0.10), (-0.36, 0.36)
-
-
-def snap(action):
-    """The key action on the 1 cm / 5 degree text grid (its quantised replay is the same pose)."""
-    return encoding.quantise(action, WORKSPACE)
 
 
 def down_yaw(yaw: float) -> np.ndarray:
@@ -114,7 +108,7 @@ class PutItemInDrawer(OpenDrawer):
         retreat = held + out * 0.10 + [0.0, 0.0, 0.10]  # straight out of the handle, then up
         cab_yaw = np.arctan2(rot[1, 0], rot[0, 0])
         drop_q = down_yaw(fold_yaw(cab_yaw))
-        yield snap(self.key(retreat, drop_q, True))  # turning the gripper to point down
+        yield quantised(self.key(retreat, drop_q, True))  # turning the gripper to point down
         # 2. pick the item up; travel above the open drawer's front
         drawer = self.drawers[self.variation].entity_pose
         front_top = self.world_point(drawer, [0.0, 0.0, DRAWER_H + 0.004])[2]
@@ -122,15 +116,15 @@ class PutItemInDrawer(OpenDrawer):
         grip_q = down_yaw(fold_yaw(2 * np.arctan2(item.q[3], item.q[0])))
         pick = np.asarray(item.p, dtype=float) + [0.0, 0.0, HALF - 0.012]
         carry = max(front_top + 0.06 + 2 * HALF, pick[2] + 0.12, retreat[2])
-        yield snap(self.key([*pick[:2], carry], grip_q, True))
-        yield snap(self.key(pick, grip_q, False))
+        yield quantised(self.key([*pick[:2], carry], grip_q, True))
+        yield quantised(self.key(pick, grip_q, False))
         in_hand = np.asarray(self.world.robot.tcp_pose().p, dtype=float) - np.asarray(self.item.pose.p, dtype=float)
         # 3. drop it into the open tray, just behind the drawer's front (the hand stays clear of
         #    the cabinet and of the handles above)
         drawer = self.drawers[self.variation].entity_pose
         floor = -DRAWER_H + 0.008
         drop = self.world_point(drawer, [-0.06, 0.0, floor + HALF + 0.007]) + in_hand
-        yield snap(self.key([*pick[:2], carry], grip_q, False))
-        yield snap(self.key([*drop[:2], carry], drop_q, False))
-        yield snap(self.key(drop, drop_q, True))
-        yield snap(self.key(drop + [0, 0, 0.10], drop_q, True))
+        yield quantised(self.key([*pick[:2], carry], grip_q, False))
+        yield quantised(self.key([*drop[:2], carry], drop_q, False))
+        yield quantised(self.key(drop, drop_q, True))
+        yield quantised(self.key(drop + [0, 0, 0.10], drop_q, True))

@@ -24,8 +24,8 @@ import numpy as np
 import sapien
 
 from ...objects import add_box, physical, yaw_pose
-from ...scene import TABLE_TOP_Z, WORKSPACE
-from ...task_base import Task, frame_quat
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, down_quat, snap_to_grid
 
 COLOURS = ("red", "green", "blue", "yellow")
 SLOT_Y = (-0.21, -0.07, 0.07, 0.21)
@@ -36,21 +36,7 @@ GRASP_AT = -0.07  # stick-local x of the grasp point
 CONTACT_AT = 0.05  # stick-local x of the point that pushes the cube
 HOVER = 0.12  # height of the carried stick's path above the table
 GRASP_Z = TABLE_TOP_Z + 0.015  # TCP height of the grasp (1.5 cm above the table)
-GRID = 0.01
 STEP = np.deg2rad(5.0)
-
-
-def snap(p) -> np.ndarray:
-    """The text-grid cell centre nearest to p: key poses the 7-integer text reproduces exactly."""
-    lo = np.asarray(WORKSPACE[0])
-    return lo + (np.floor((np.asarray(p, dtype=float) - lo) / GRID) + 0.5) * GRID
-
-
-def down_quat(theta: float) -> np.ndarray:
-    """Gripper pointing down with its hand x axis at yaw `theta` (fingers close across it)."""
-    x = np.array([np.cos(theta), np.sin(theta), 0.0])
-    z = np.array([0.0, 0.0, -1.0])
-    return frame_quat(x, np.cross(z, x), z)
 
 
 def wrap(angle: float) -> float:
@@ -111,11 +97,11 @@ class ReachAndDrag(Task):
             theta0 = wrap(theta0 + np.pi)
         theta0 = float(np.round(theta0 / STEP) * STEP)
         grasp = self.world_point(stick, [GRASP_AT, 0, 0])
-        grasp = snap([grasp[0], grasp[1], GRASP_Z])
+        grasp = snap_to_grid([grasp[0], grasp[1], GRASP_Z])
         q0 = down_quat(theta0)
-        yield self.key(snap(grasp + [0, 0, HOVER]), q0, True)
+        yield self.key(snap_to_grid(grasp + [0, 0, HOVER]), q0, True)
         yield self.key(grasp, q0, False)
-        yield self.key(snap(grasp + [0, 0, HOVER]), q0, False)
+        yield self.key(snap_to_grid(grasp + [0, 0, HOVER]), q0, False)
 
         # where the pushing point of the stick sits in the hand (measured after the grasp)
         tcp = self.world.robot.tcp_pose()
@@ -142,7 +128,7 @@ class ReachAndDrag(Task):
         reach = CUBE_HALF + STICK_HALF[1]  # from the pushing point to the cube centre at the end
         start = np.array([*(cube[:2] - pull * behind), 0.0]) - offset
         end = np.array([*(target[:2] - pull * reach), 0.0]) - offset
-        yield self.key(snap([start[0], start[1], TABLE_TOP_Z + HOVER]), q1, False)
-        yield self.key(snap([start[0], start[1], low]), q1, False)
-        yield self.key(snap([end[0], end[1], low]), q1, False)
-        yield self.key(snap([end[0], end[1], TABLE_TOP_Z + HOVER]), q1, False)
+        yield self.key(snap_to_grid([start[0], start[1], TABLE_TOP_Z + HOVER]), q1, False)
+        yield self.key(snap_to_grid([start[0], start[1], low]), q1, False)
+        yield self.key(snap_to_grid([end[0], end[1], low]), q1, False)
+        yield self.key(snap_to_grid([end[0], end[1], TABLE_TOP_Z + HOVER]), q1, False)

@@ -22,11 +22,10 @@ from __future__ import annotations
 import numpy as np
 import sapien
 
-from xicm.core import encoding
 
 from ...objects import COLORS, add_box, physical, yaw_pose
-from ...scene import TABLE_TOP_Z, WORKSPACE
-from ...task_base import Task
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, quantised
 
 TARGETS = ("green", "blue", "pink", "yellow")
 RGB = {"green": COLORS["green"], "blue": COLORS["blue"], "pink": (0.95, 0.45, 0.70), "yellow": COLORS["yellow"]}
@@ -35,11 +34,6 @@ TARGET_HALF = 0.04
 SPACING = 0.15  # block centre to each target centre
 FINGER_HALF = 0.011  # half the closed fingers' thickness along the hand's x axis
 DOWN = np.array([0.0, 1.0, 0.0, 0.0])
-
-
-def snap(action):
-    """The key action on the 1 cm / 5 degree text grid (its quantised replay is the same pose)."""
-    return encoding.quantise(action, WORKSPACE)
 
 
 def down_yaw(yaw: float) -> np.ndarray:
@@ -95,7 +89,7 @@ class SlideBlockToColorTarget(Task):
         z = TABLE_TOP_Z + 0.02  # fingertips 1 cm above the table
         start = np.array([block[0], block[1], z]) - u * (HALF + FINGER_HALF + 0.03)
         end = np.array([target[0], target[1], z]) - u * (HALF + FINGER_HALF - 0.005)
-        yield snap(self.key(start + [0, 0, 0.10], q, False))
-        yield snap(self.key(start, q, False))
-        yield snap(self.key(end, q, False))
-        yield snap(self.key(end + [0, 0, 0.10], q, False))
+        yield quantised(self.key(start + [0, 0, 0.10], q, False))
+        yield quantised(self.key(start, q, False))
+        yield quantised(self.key(end, q, False))
+        yield quantised(self.key(end + [0, 0, 0.10], q, False))

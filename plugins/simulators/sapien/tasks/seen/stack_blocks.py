@@ -25,11 +25,10 @@ from __future__ import annotations
 import numpy as np
 import sapien
 
-from xicm.core import encoding
 
 from ...objects import add_box, physical, yaw_pose
-from ...scene import TABLE_TOP_Z, WORKSPACE
-from ...task_base import Task
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, quantised
 
 PALETTE = ("red", "green", "blue", "yellow", "orange", "purple", "cyan", "white")
 HALF = 0.02  # blocks are 4 cm cubes
@@ -37,11 +36,6 @@ AREA_HALF, AREA_T = 0.07, 0.001
 SPAWN_X, SPAWN_Y = (0.00, 0.36), (-0.30, 0.30)
 BLOCK_GAP, AREA_GAP = 0.10, 0.14
 DOWN = np.array([0.0, 1.0, 0.0, 0.0])
-
-
-def snap(action):
-    """The key action on the 1 cm / 5 degree text grid (its quantised replay is the same pose)."""
-    return encoding.quantise(action, WORKSPACE)
 
 
 def down_yaw(yaw: float) -> np.ndarray:
@@ -142,15 +136,15 @@ class StackBlocks(Task):
             yaw = (yaw + np.pi / 4) % (np.pi / 2) - np.pi / 4  # the face pair closest to the default grip
             grip_q = down_yaw(yaw)
             grasp = p + [0.0, 0.0, HALF - 0.012]
-            yield snap(self.key(grasp + [0, 0, 0.10], grip_q, True))
-            yield snap(self.key(grasp, grip_q, False))
+            yield quantised(self.key(grasp + [0, 0, 0.10], grip_q, True))
+            yield quantised(self.key(grasp, grip_q, False))
             tcp = np.asarray(self.world.robot.tcp_pose().p, dtype=float)
             in_hand = tcp - np.asarray(block.pose.p, dtype=float)
             place = np.array([*top_xy, base + level * 2 * HALF + HALF + 0.007]) + in_hand
             carry = max(place[2] + 0.05, grasp[2] + 0.10)
-            yield snap(self.key([*grasp[:2], carry], grip_q, False))
-            yield snap(self.key([*place[:2], carry], DOWN, False))
-            yield snap(self.key(place, DOWN, True))
+            yield quantised(self.key([*grasp[:2], carry], grip_q, False))
+            yield quantised(self.key([*place[:2], carry], DOWN, False))
+            yield quantised(self.key(place, DOWN, True))
             if level < self.count - 1:  # as upstream, no retreat after the last block
-                yield snap(self.key(place + [0, 0, 0.06], DOWN, True))
+                yield quantised(self.key(place + [0, 0, 0.06], DOWN, True))
             top_xy = np.asarray(block.pose.p[:2], dtype=float)

@@ -23,8 +23,8 @@ import numpy as np
 import sapien
 
 from ...objects import add_box, physical, yaw_pose
-from ...scene import TABLE_TOP_Z, WORKSPACE
-from ...task_base import Task, frame_quat
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, down_quat, snap_to_grid, yaw_of
 
 SIZES = ("tall", "short")
 WALL_H = {"tall": 0.08, "short": 0.03}
@@ -34,30 +34,12 @@ HEAD_HALF = (0.075, 0.015, 0.0125)  # broom head: length (along x), thickness, h
 HANDLE_HALF = (0.008, 0.008, 0.07)
 DIRT_HALF = 0.007
 N_DIRT = 5
-GRID = 0.01
 STEP = np.deg2rad(5.0)
-
-
-def snap(p) -> np.ndarray:
-    """The text-grid cell centre nearest to p: key poses the 7-integer text reproduces exactly."""
-    lo = np.asarray(WORKSPACE[0])
-    return lo + (np.floor((np.asarray(p, dtype=float) - lo) / GRID) + 0.5) * GRID
-
-
-def down_quat(theta: float) -> np.ndarray:
-    x = np.array([np.cos(theta), np.sin(theta), 0.0])
-    z = np.array([0.0, 0.0, -1.0])
-    return frame_quat(x, np.cross(z, x), z)
 
 
 def near(angle: float, ref: float, period: float) -> float:
     """angle + k * period closest to ref."""
     return float(angle + np.round((ref - angle) / period) * period)
-
-
-def yaw_of(pose: sapien.Pose) -> float:
-    m = pose.to_transformation_matrix()
-    return float(np.arctan2(m[1, 0], m[0, 0]))
 
 
 class SweepToDustpanOfSize(Task):
@@ -131,11 +113,11 @@ class SweepToDustpanOfSize(Task):
         broom = self.broom.pose
         top = self.world_point(broom, [0, 0, 2 * HEAD_HALF[2] + 2 * HANDLE_HALF[2] - 0.015])
         theta_g = float(np.round(yaw_of(broom) / STEP) * STEP)  # hand x along the head
-        grasp = snap(top)
+        grasp = snap_to_grid(top)
         yield self.key(grasp + [0, 0, 0.08], down_quat(theta_g), True)
         yield self.key(grasp, down_quat(theta_g), False)
         held = self.world.robot.tcp_pose().inv() * self.broom.pose  # the broom in the hand
-        yield self.key(snap(grasp + [0, 0, 0.05]), down_quat(theta_g), False)
+        yield self.key(snap_to_grid(grasp + [0, 0, 0.05]), down_quat(theta_g), False)
 
         side = self.sides[self.variation]  # +1: sweep towards +y
         pan = np.asarray(self.pans[self.variation].pose.p)
@@ -152,9 +134,9 @@ class SweepToDustpanOfSize(Task):
         opening = pan[1] - side * PAN_HALF[1]
         end = opening + side * (0.03 - HEAD_HALF[1])  # head's front face 3 cm into the dustpan
         low = TABLE_TOP_Z + 0.003 - offset[2]  # head 3 mm above the table (-2 to 8 mm on the grid)
-        start = snap([x - offset[0], behind - offset[1], low])
-        stop = snap([x - offset[0], end - offset[1], low])
-        yield self.key(snap([start[0], start[1], low + 0.05]), q, False)
+        start = snap_to_grid([x - offset[0], behind - offset[1], low])
+        stop = snap_to_grid([x - offset[0], end - offset[1], low])
+        yield self.key(snap_to_grid([start[0], start[1], low + 0.05]), q, False)
         yield self.key(start, q, False)
         yield self.key(stop, q, False)
-        yield self.key(snap([stop[0], stop[1], low + 0.06]), q, False)
+        yield self.key(snap_to_grid([stop[0], stop[1], low + 0.06]), q, False)

@@ -21,11 +21,10 @@ from __future__ import annotations
 import numpy as np
 import sapien
 
-from xicm.core import encoding
 
 from ...objects import add_box, add_cylinder, look, physical, yaw_pose
-from ...scene import TABLE_TOP_Z, WORKSPACE
-from ...task_base import Task
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, quantised
 
 SIDES = ("left", "right")
 TAP_Y = 0.13  # valve centres on the faucet's local y axis (+y: the robot's left)
@@ -37,11 +36,6 @@ TURN = np.deg2rad(115.0)  # how far the demonstrator turns
 SUCCESS_ANGLE = np.pi / 2
 DOWN = np.array([0.0, 1.0, 0.0, 0.0])
 UP_AXIS = [np.cos(np.pi / 4), 0.0, -np.sin(np.pi / 4), 0.0]  # joint x axis -> world +z
-
-
-def snap(action):
-    """The key action on the 1 cm / 5 degree text grid (its quantised replay is the same pose)."""
-    return encoding.quantise(action, WORKSPACE)
 
 
 def down_yaw(yaw: float) -> np.ndarray:
@@ -109,7 +103,7 @@ class TurnTap(Task):
         yaw = np.arctan2(bar_x[1], bar_x[0])
         yaw = (yaw + np.pi / 2) % np.pi - np.pi / 2  # the bar is symmetric: hand x along it, in [-90, 90)
         end = yaw - TURN if yaw > 0 else yaw + TURN  # turn towards the wrist's middle
-        yield snap(self.key(bar + [0, 0, 0.10], down_yaw(yaw), True))
-        yield snap(self.key(bar, down_yaw(yaw), False))
-        yield snap(self.key(bar, down_yaw(end), True))
-        yield snap(self.key(bar + [0, 0, 0.10], down_yaw(end), True))
+        yield quantised(self.key(bar + [0, 0, 0.10], down_yaw(yaw), True))
+        yield quantised(self.key(bar, down_yaw(yaw), False))
+        yield quantised(self.key(bar, down_yaw(end), True))
+        yield quantised(self.key(bar + [0, 0, 0.10], down_yaw(end), True))
