@@ -37,7 +37,14 @@ def test_a_wheel_install_carries_configs_assets_and_plugins(tmp_path):
     import sys
     import zipfile
 
-    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(tmp_path), str(ROOT)], check=True)
+    import shutil
+
+    had_build_dir = (ROOT / "build").exists()
+    try:
+        subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(tmp_path), str(ROOT)], check=True)
+    finally:
+        if not had_build_dir:  # setuptools builds in-tree; leave no stale copies for later wheels
+            shutil.rmtree(ROOT / "build", ignore_errors=True)
     wheel = next(tmp_path.glob("xicm-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "xicm/conf/config.yaml" in names and "xicm/conf/llm/gemma3_270m.yaml" in names
