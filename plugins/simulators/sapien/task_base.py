@@ -9,6 +9,7 @@ that executes the agent's actions.
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from typing import ClassVar, Iterator
 
 import numpy as np
@@ -49,7 +50,7 @@ def wrist_friendly(quat_wxyz) -> np.ndarray:
     return turn_gripper(quat_wxyz) if needs_turn(quat_wxyz) else np.asarray(quat_wxyz, dtype=float)
 
 
-class Task:
+class Task(ABC):
     name: ClassVar[str]
     split: ClassVar[str]  # 'seen', 'level1' or 'level2'
     #: instruction of variation 0 (what unseen tasks are evaluated on)
@@ -68,24 +69,24 @@ class Task:
         return TaskInfo(cls.name, cls.split, cls.instruction, tuple(cls.object_names))
 
     # --- to implement ----------------------------------------------------------------------
+    @abstractmethod
     def load(self) -> None:
         """Create the task's objects in the scene (register them in self.objects)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         """Place the objects and pick the variation for one episode."""
-        raise NotImplementedError
 
+    @abstractmethod
     def evaluate(self) -> bool:
         """Whether the task is solved in the current state."""
-        raise NotImplementedError
 
     def on_frame(self) -> None:
         """Called after every control frame (override to track events)."""
 
+    @abstractmethod
     def demonstration(self) -> Iterator[KeyAction]:
         """Key actions of the scripted demonstrator, computed from the true state as it goes."""
-        raise NotImplementedError
 
     # --- helpers ---------------------------------------------------------------------------
     @staticmethod

@@ -114,17 +114,25 @@ class OpenDrawer(Task):
     def evaluate(self) -> bool:
         return bool(self.travel()[self.variation] > SUCCESS_TRAVEL)
 
-    def demonstration(self):
-        root = self.cabinet.get_root_pose()
-        rot = root.to_transformation_matrix()[:3, :3]
+    def handle_grasp(self):
+        """(cabinet rotation, out-of-cabinet direction, approach direction, TCP grasp point on the
+        named drawer's handle, gripper orientation) for grasping the handle."""
+        rot = self.cabinet.get_root_pose().to_transformation_matrix()[:3, :3]
         out = -rot[:, 0]  # out of the cabinet, towards the robot
         # gripper z points into the cabinet and down by PITCH; fingers close horizontally
         approach = -out * np.cos(PITCH) + np.array([0.0, 0.0, -np.sin(PITCH)])
         finger = np.cross([0.0, 0.0, 1.0], out)
         quat = wrist_friendly(frame_quat(np.cross(finger, approach), finger, approach))
-        handle = self.handles[self.variation].entity_pose
-        bar = self.world_point(handle, [HANDLE_OUT - 0.015, 0, 0])
+        bar = self.world_point(self.handles[self.variation].entity_pose, [HANDLE_OUT - 0.015, 0, 0])
         grasp = bar - approach * 0.004  # a little short of the bar centre: the palm stays clear
+        return rot, out, approach, grasp, quat
+
+    def pull_keys(self, release: bool):
+        """Approach, grasp and pull the named drawer; open the gripper at the end if `release`."""
+        _, out, approach, grasp, quat = self.handle_grasp()
         yield self.key(grasp - approach * 0.10, quat, True)
         yield self.key(grasp, quat, False)
-        yield self.key(grasp + out * PULL, quat, False)
+        yield self.key(grasp + out * PULL, quat, release)
+
+    def demonstration(self):
+        yield from self.pull_keys(release=False)

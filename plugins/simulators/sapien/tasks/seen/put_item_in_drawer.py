@@ -26,11 +26,10 @@ import sapien
 
 from ...objects import add_box, physical
 from ...scene import TABLE_TOP_Z
-from ...task_base import frame_quat, quantised, wrist_friendly
+from ...task_base import quantised
 from .open_drawer import (
     DEPTH,
     HANDLE_OUT,
-    PITCH,
     POSITIONS,
     SLOT,
     WALL,
@@ -92,18 +91,9 @@ class PutItemInDrawer(OpenDrawer):
         return self.in_drawer(self.variation)
 
     def demonstration(self):
-        root = self.cabinet.get_root_pose()
-        rot = root.to_transformation_matrix()[:3, :3]
-        out = -rot[:, 0]  # out of the cabinet, towards the robot
-        approach = -out * np.cos(PITCH) + np.array([0.0, 0.0, -np.sin(PITCH)])
-        finger = np.cross([0.0, 0.0, 1.0], out)
-        quat = wrist_friendly(frame_quat(np.cross(finger, approach), finger, approach))
-        bar = self.world_point(self.handles[self.variation].entity_pose, [HANDLE_OUT - 0.015, 0, 0])
-        grasp = bar - approach * 0.004
+        rot, out, _, _, _ = self.handle_grasp()
         # 1. pull the named drawer open and let go of the handle
-        yield self.key(grasp - approach * 0.10, quat, True)
-        yield self.key(grasp, quat, False)
-        yield self.key(grasp + out * PULL, quat, True)
+        yield from self.pull_keys(release=True)
         held = np.asarray(self.world.robot.tcp_pose().p, dtype=float)
         retreat = held + out * 0.10 + [0.0, 0.0, 0.10]  # straight out of the handle, then up
         cab_yaw = np.arctan2(rot[1, 0], rot[0, 0])

@@ -22,7 +22,7 @@ import sapien
 
 from ...objects import add_box, add_cylinder, physical
 from ...scene import TABLE_TOP_Z
-from ...task_base import Task
+from ...task_base import Task, snap_to_grid
 
 COLOURS = ("red", "green", "blue")
 R_BOTTOM, R_TOP, HEIGHT = 0.025, 0.045, 0.075  # outer radius at the bottom / rim, height
@@ -31,7 +31,6 @@ BASE = 0.004  # bottom plate thickness
 SEGMENTS = 16
 SLOPE = (R_TOP - R_BOTTOM) / HEIGHT
 GRIP_DEPTH = 0.015  # the TCP this far below the rim when grasping
-Z_GRID = 0.01  # text-grid cell size; grasp heights are put on cell centres
 CARRY = 0.20  # carried cup's bottom this high above the table over the stack
 DROP = 0.03  # release the cup this far above where it nests (fingertips then clear its rim)
 
@@ -42,8 +41,8 @@ def wall_radius(z: float) -> float:
 
 
 def cell_centre(z: float) -> float:
-    """The nearest height that is a 1 cm text-grid cell centre (grid starts at 0.6 m)."""
-    return 0.6 + (np.floor((z - 0.6) / Z_GRID) + 0.5) * Z_GRID
+    """The height of the 1 cm text-grid cell centre that holds z."""
+    return float(snap_to_grid((0.0, 0.0, z))[2])
 
 
 class StackCups(Task):
