@@ -14,19 +14,28 @@ attempt is logged in the file, so a re-run resumes: episodes already written, or
 scripted demonstration failed, are skipped without simulating them again, and the walk over
 episodes reproduces the counts of an uninterrupted run. Episodes that ended with an
 exception (a simulator or detector error, possibly a bug since fixed) are tried again.
+
+With `workers > 1` (collect_parallel) episodes run in worker processes that each keep one
+simulator alive; the parent alone writes the file and commits results in episode order, so
+the pool holds the same demos as a sequential run (see collect_walk.py).
 """
 
 from __future__ import annotations
 
 import logging
-import math
+import multiprocessing
+import os
+import threading
+import time
 from collections.abc import Iterable
+from concurrent.futures import Future
 from pathlib import Path
 
 import numpy as np
 
 from xicm.core import encoding
-from xicm.core.dataset import DemoWriter, demo_id
+from xicm.core.collect_walk import Attempt, EpisodeWalk
+from xicm.core.dataset import demo_id
 from xicm.core.interfaces import Detector, Simulator
 from xicm.core.types import Demo
 
@@ -55,7 +64,7 @@ def record_episode(
     traj = simulator.demonstrate()
     if not traj.success:
         raise AttemptFailed("the scripted demonstration did not succeed")
-    last = simulator.observe().cameras[camera]
+    last = simulator.observe(cameras=[camera]).cameras[camera]  # render only what is stored
     key_actions = encoding.key_actions_from_trajectory(traj)
     if not key_actions:
         raise AttemptFailed("the trajectory has no key frames")
@@ -78,6 +87,19 @@ def record_episode(
     return demo, note
 
 
+def attempt_episode(
+    simulator: Simulator, detector: Detector, task: str, seed: int, episode: int, camera: str = "front"
+) -> Attempt:
+    """record_episode that never raises: the outcome of one episode, ready to be committed."""
+    try:
+        demo, note = record_episode(simulator, detector, task, seed, episode, camera)
+    except AttemptFailed as exc:
+        return Attempt(task, int(episode), None, str(exc), error=False)
+    except Exception as exc:  # noqa: BLE001 - a failed episode must not stop the run
+        return Attempt(task, int(episode), None, f"{type(exc).__name__}: {exc}", error=True)
+    return Attempt(task, int(episode), demo, note, error=False)
+
+
 def collect(
     simulator: Simulator,
     detector: Detector,
@@ -89,49 +111,80 @@ def collect(
     progress: bool = True,
     camera: str = "front",
 ) -> dict[str, tuple[int, int]]:
-    """Collect demos into `out_path`; returns {task: (successes, attempts)} (resumed ones included)."""
-    from tqdm.auto import tqdm
+    """Collect demos in this process into `out_path`; returns {task: (successes, attempts)}."""
 
-    tasks = list(tasks)
-    n = int(demos_per_task)
-    cap = max(n, int(math.ceil(n * float(max_attempts_factor))))
-    counts: dict[str, tuple[int, int]] = {}
-    with DemoWriter(out_path, simulator.workspace) as writer, tqdm(
-        total=n * len(tasks), desc="collect", unit="demo", disable=not progress, dynamic_ncols=True
-    ) as bar:
-        logged = writer.attempts()
-        for task in tasks:
-            successes = attempts = 0
-            episode = 0
-            while successes < n and attempts < cap:
-                did = demo_id(task, seed, episode)
-                previous = logged.get((task, int(seed), episode))
-                if writer.has(did):
-                    successes += 1
-                    bar.update(1)
-                elif previous is not None and not previous.success and not previous.error:
-                    pass  # the demonstrator failed on this scene in an earlier run: not retried
-                else:
-                    bar.set_postfix_str(f"{task} e{episode}", refresh=False)
-                    try:
-                        demo, note = record_episode(simulator, detector, task, seed, episode, camera)
-                    except AttemptFailed as exc:
-                        log.info("collect %s: no demo (%s)", did, exc)
-                        writer.log_attempt(task, seed, episode, False, str(exc))
-                    except Exception as exc:  # noqa: BLE001 - a failed episode must not stop the run
-                        note = f"{type(exc).__name__}: {exc}"
-                        log.warning("collect %s: error, retried on resume (%s)", did, note)
-                        writer.log_attempt(task, seed, episode, False, note, error=True)
-                    else:
-                        writer.write(demo)
-                        writer.log_attempt(task, seed, episode, True, note)
-                        successes += 1
-                        bar.update(1)
-                attempts += 1
-                episode += 1
-            if successes < n:
-                log.warning("collect %s: only %d of %d demos after %d attempts", task, successes, n, attempts)
-                bar.update(n - successes)  # keep the bar's total honest
-            counts[task] = (successes, attempts)
-    return counts
+    def run(task: str, episode: int) -> Future:
+        done: Future = Future()
+        done.set_result(attempt_episode(simulator, detector, task, seed, episode, camera))
+        return done
 
+    walk = EpisodeWalk(tasks, demos_per_task, seed, max_attempts_factor, in_flight=1)
+    return walk.run(run, out_path, simulator.workspace, progress)
+
+
+def collect_parallel(
+    simulator_options: dict,
+    detector_options: dict,
+    tasks: Iterable[str],
+    demos_per_task: int,
+    seed: int,
+    out_path: str | Path,
+    workers: int,
+    max_attempts_factor: float = 2,
+    progress: bool = True,
+    camera: str = "front",
+) -> dict[str, tuple[int, int]]:
+    """collect() over `workers` processes, each building its simulator and detector once."""
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    context = multiprocessing.get_context("spawn")  # a forked SAPIEN/Vulkan state is not safe
+    with ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=context,
+        initializer=_worker_start,
+        initargs=(dict(simulator_options), dict(detector_options), camera),
+    ) as pool:
+        workspace = pool.submit(_worker_workspace).result()
+
+        def run(task: str, episode: int) -> Future:
+            return pool.submit(_worker_attempt, task, seed, episode)
+
+        walk = EpisodeWalk(tasks, demos_per_task, seed, max_attempts_factor, in_flight=2 * workers)
+        try:
+            return walk.run(run, out_path, workspace, progress)
+        except BrokenProcessPool as exc:
+            raise RuntimeError(
+                "a collection worker process died (see its message above); everything committed so far is "
+                "in the pool: run the same command again to resume"
+            ) from exc
+
+
+# --- worker processes: one simulator and detector each, kept for the whole collection ----
+_WORKER: dict = {}
+
+
+def _worker_start(simulator_options: dict, detector_options: dict, camera: str) -> None:
+    from xicm.core.plugins import get_registry
+
+    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+
+    registry = get_registry()
+    _WORKER["simulator"] = registry.create("simulator", simulator_options)
+    _WORKER["detector"] = registry.create("detector", detector_options)
+    _WORKER["camera"] = camera
+
+
+def _exit_with_parent(parent: int) -> None:
+    """A killed parent (kill -9) cannot stop its workers: they notice being orphaned and exit."""
+    while os.getppid() == parent:
+        time.sleep(0.5)
+    os._exit(1)
+
+
+def _worker_workspace():
+    return _WORKER["simulator"].workspace
+
+
+def _worker_attempt(task: str, seed: int, episode: int) -> Attempt:
+    return attempt_episode(_WORKER["simulator"], _WORKER["detector"], task, seed, episode, _WORKER["camera"])

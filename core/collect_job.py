@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import time
 from pathlib import Path
 
 from omegaconf import DictConfig
@@ -23,26 +25,47 @@ def run_collect(cfg: DictConfig) -> dict[str, tuple[int, int]]:
     registry.get("simulator", cfg.simulator.name)
     registry.get("detector", cfg.detector.name)
 
-    from xicm.core.collect import collect
+    from xicm.core.collect import collect, collect_parallel
 
     out_path = Path(cfg.pool_path)
     out_path.parent.mkdir(parents=True, exist_ok=True)
-    simulator = registry.create("simulator", build.options(cfg, "simulator"))
-    try:
-        counts = collect(
-            simulator=simulator,
-            detector=registry.create("detector", build.options(cfg, "detector")),
-            tasks=tasks,
-            demos_per_task=int(cfg.collect.demos_per_task),
-            seed=int(cfg.collect.seed),
-            out_path=out_path,
-            max_attempts_factor=float(cfg.collect.max_attempts_factor),
-            progress=bool(cfg.progress),
+    workers = resolve_workers(cfg.collect.workers)
+    common = dict(
+        tasks=tasks,
+        demos_per_task=int(cfg.collect.demos_per_task),
+        seed=int(cfg.collect.seed),
+        out_path=out_path,
+        max_attempts_factor=float(cfg.collect.max_attempts_factor),
+        progress=bool(cfg.progress),
+    )
+    start = time.perf_counter()
+    if workers == 1:
+        simulator = registry.create("simulator", build.options(cfg, "simulator"))
+        try:
+            detector = registry.create("detector", build.options(cfg, "detector"))
+            counts = collect(simulator=simulator, detector=detector, **common)
+        finally:
+            simulator.close()
+    else:
+        counts = collect_parallel(
+            build.options(cfg, "simulator"), build.options(cfg, "detector"), workers=workers, **common
         )
-    finally:
-        simulator.close()
-    print(f"\npool: {out_path}")
+    seconds = time.perf_counter() - start
+    print(f"\npool: {out_path}  ({workers} worker{'s' if workers > 1 else ''}, {seconds:.0f} s)")
     print("| task | demos | attempts | scripted success % |\n|---|---:|---:|---:|")
     for task, (ok, attempts) in counts.items():
         print(f"| {task} | {ok} | {attempts} | {100.0 * ok / max(attempts, 1):.1f} |")
     return counts
+
+
+def resolve_workers(value) -> int:
+    """collect.workers: a positive number, or 'auto' (one per CPU core)."""
+    if str(value) == "auto":
+        return max(1, os.cpu_count() or 1)
+    try:
+        workers = int(value)
+    except (TypeError, ValueError):
+        workers = 0
+    if workers < 1:
+        raise ConfigError(f"collect.workers must be a positive number or 'auto', not {value!r}")
+    return workers

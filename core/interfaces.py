@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -39,8 +40,8 @@ class Simulator(ABC):
         """Load `task` and sample its initial state from (seed, task, episode)."""
 
     @abstractmethod
-    def observe(self) -> Observation:
-        """Render the cameras and return the current observation."""
+    def observe(self, cameras: Sequence[str] | None = None) -> Observation:
+        """Render the cameras (only the named ones if given) and return the current observation."""
 
     @abstractmethod
     def execute(self, action: KeyAction) -> StepOutcome:

@@ -1,3 +1,4 @@
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -47,6 +48,21 @@ def test_unknown_task_stops_with_the_list():
     cfg = _compose(["benchmark.tasks=[open_drawer,make_coffee]"])
     with pytest.raises(ConfigError, match="unknown task 'make_coffee'; available: .*open_drawer"):
         build.check_names(cfg, get_registry(), list(cfg.benchmark.tasks))
+
+
+@pytest.mark.parametrize("value, workers", [("auto", None), (1, 1), ("3", 3)])
+def test_collect_workers(value, workers):
+    from xicm.core.collect_job import resolve_workers
+
+    assert resolve_workers(value) == (workers or os.cpu_count())
+
+
+@pytest.mark.parametrize("value", [0, -2, "many"])
+def test_bad_collect_workers_is_one_sentence(value):
+    from xicm.core.collect_job import resolve_workers
+
+    with pytest.raises(ConfigError, match="collect.workers must be a positive number or 'auto'"):
+        resolve_workers(value)
 
 
 def test_missing_pool_says_what_to_run(tmp_path):

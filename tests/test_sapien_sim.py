@@ -243,6 +243,15 @@ def test_camera_frames(sim):
     assert front[0, 2] < -0.5 and front[2, 2] < 0
 
 
+def test_observe_renders_only_the_named_cameras(sim):
+    sim.reset_state("open_drawer", 2, 0)
+    obs = sim.observe(cameras=["front"])
+    assert set(obs.cameras) == {"front"}
+    np.testing.assert_array_equal(obs.cameras["front"].rgb, sim.observe().cameras["front"].rgb)
+    with pytest.raises(ValueError, match="no camera 'back'; cameras: front, "):
+        sim.observe(cameras=["back"])
+
+
 def test_segmentation_names_every_link_of_an_object(sim):
     obs = sim.reset("close_microwave", 0, 0)
     names = obs.segment_names

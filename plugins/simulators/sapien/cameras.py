@@ -75,6 +75,9 @@ class Cameras:
     def capture(self, names=None) -> dict[str, CameraFrame]:
         """Render (the scene must have had update_render() called) and read the pictures."""
         frames = {}
+        unknown = [n for n in names or () if n not in self.cameras]
+        if unknown:
+            raise ValueError(f"no camera {', '.join(map(repr, unknown))}; cameras: {', '.join(self.cameras)}")
         for name in names or self.cameras:
             cam = self.cameras[name]
             cam.take_picture()

@@ -110,10 +110,10 @@ class SapienSimulator(Simulator):
             q = -q
         return KeyAction(tuple(float(v) for v in pose.p), tuple(float(v) for v in q), self.robot.gripper_open)
 
-    def observe(self) -> Observation:
+    def observe(self, cameras=None) -> Observation:
         self._require_task()
         t0 = time.perf_counter()
-        frames = self.world.render()
+        frames = self.world.render(None if cameras is None else [str(c) for c in cameras])
         self.timings["render"] = time.perf_counter() - t0
         return Observation(
             instruction=self.task.episode_instruction,
