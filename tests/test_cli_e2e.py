@@ -66,3 +66,15 @@ def test_multirun_sweeps_retriever_and_k(workdir):
     jobs = sorted(p.parent.name for p in (work / "sweep").rglob("summary.json"))
     assert len(jobs) == 4, jobs
     assert any("retriever=language" in j and "prompt.k=2" in j for j in jobs)
+
+
+def test_oracle_policy_needs_no_pool_and_solves_the_tasks(tmp_path):
+    out = tmp_path / "oracle"
+    _run(
+        "xicm-eval", "policy=oracle", "benchmark=smoke", "episodes=2", f"paths.data={tmp_path}/nothing",
+        f"hydra.run.dir={out}", "progress=false", cwd=tmp_path,
+    )
+    summary = json.loads((out / "summary.json").read_text())
+    assert {r["task"]: r["success"] for r in summary["tasks"]} == {t: 100.0 for t in ("open_drawer", "push_buttons", "close_microwave")}
+    assert json.loads((out / "run.json").read_text())["policy"] == "oracle"
+    assert not (tmp_path / "nothing").exists()

@@ -12,7 +12,7 @@ from xicm.core.errors import ConfigError
 from xicm.core.plugins import UnknownPluginError, get_registry
 
 CONF = Path(__file__).resolve().parents[1] / "conf"
-GROUPS = ["simulator", "detector", "encoder", "retriever", "prompt", "llm", "benchmark"]
+GROUPS = ["simulator", "detector", "encoder", "retriever", "prompt", "llm", "benchmark", "policy"]
 
 
 def _compose(overrides=()):
@@ -26,7 +26,13 @@ def test_every_option_of_every_group_composes_and_names_a_registered_plugin(grou
     for option in sorted(p.stem for p in (CONF / group).glob("*.yaml")):
         cfg = _compose([f"{group}={option}"])
         if group == "benchmark":
-            assert set(cfg.benchmark.pool_tasks) <= set(registry.names("task")) | set()
+            known = set(registry.names("task"))
+            assert set(cfg.benchmark.pool_tasks) <= known and set(cfg.benchmark.tasks) <= known
+            continue
+        if group == "policy":
+            from xicm.core.eval_job import POLICIES
+
+            assert cfg.policy.name in POLICIES
             continue
         name = cfg[group].name
         if name is not None:
@@ -111,3 +117,11 @@ def test_cli_malformed_override_is_reported(tmp_path):
     out = _cli("seeds=[0,", cwd=tmp_path)
     assert out.returncode != 0
     assert "no viable alternative at input '[0,'" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_unknown_policy_stops_with_the_list(tmp_path):
+    from xicm.core.eval_job import run_eval
+
+    cfg = _compose(["policy.name=greedy"])
+    with pytest.raises(ConfigError, match="unknown policy 'greedy'; available: xicm, oracle"):
+        run_eval(cfg, tmp_path / "out")
