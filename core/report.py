@@ -77,7 +77,16 @@ def summarise(rows: Sequence[dict[str, Any]], splits: dict[str, str], task_order
                 seed_means.append(float(np.mean(rates)))
         mean, std = _mean_std(seed_means)
         group_rows.append({"group": label, "tasks": len(members), "success": mean, "std": std, "seeds": len(seed_means)})
-    return {"seeds": seeds, "tasks": task_rows, "groups": group_rows, "episodes": len(rows)}
+    return {"seeds": seeds, "tasks": task_rows, "groups": group_rows, "episodes": len(rows), "seconds": stage_seconds(rows)}
+
+
+def stage_seconds(rows: Sequence[dict[str, Any]]) -> dict[str, float]:
+    """Mean seconds per episode spent in each stage (reset, detect, retrieve, llm, execute, ...)."""
+    totals: dict[str, float] = defaultdict(float)
+    for r in rows:
+        for stage, seconds in (r.get("timings") or {}).items():
+            totals[stage] += float(seconds)
+    return {stage: totals[stage] / len(rows) for stage in totals} if rows else {}
 
 
 def markdown_table(summary: dict[str, Any]) -> str:
@@ -100,6 +109,10 @@ def markdown_table(summary: dict[str, Any]) -> str:
         lines.append(f"| **{g['group']}** ({g['tasks']} tasks) | | **{g['success']:.1f}** | {std(g['std'])} | | | |")
     lines.append("")
     lines.append(f"{summary['episodes']} episodes, seeds {summary['seeds']}; std is over seeds.")
+    seconds = summary.get("seconds") or {}
+    if seconds:
+        stages = ", ".join(f"{k} {v:.2f}" for k, v in seconds.items() if k != "total")
+        lines.append(f"Seconds per episode: {stages}; total {seconds.get('total', 0.0):.2f}.")
     return "\n".join(lines)
 
 

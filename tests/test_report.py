@@ -43,3 +43,12 @@ def test_task_order_follows_the_benchmark_not_the_rows():
     rows = _rows("z", 0, [1]) + _rows("a", 0, [0])
     s = report.summarise(rows, {"z": "seen", "a": "seen"}, ["z", "a"])
     assert [r["task"] for r in s["tasks"]] == ["z", "a"]
+
+
+def test_seconds_per_episode_per_stage():
+    rows = _rows("a", 0, [True, False])
+    rows[0]["timings"] = {"reset": 1.0, "llm": 3.0, "total": 4.5}
+    rows[1]["timings"] = {"reset": 2.0, "execute": 1.0, "total": 3.5}
+    summary = report.summarise(rows, {"a": "level1"}, ["a"])
+    assert summary["seconds"] == {"reset": 1.5, "llm": 1.5, "total": 4.0, "execute": 0.5}
+    assert "Seconds per episode: reset 1.50, llm 1.50, execute 0.50; total 4.00." in report.markdown_table(summary)
