@@ -18,6 +18,7 @@ GROUP_KINDS = {
     "retriever": "retriever",
     "prompt": "prompt",
     "llm": "llm",
+    "policy": "policy",
 }
 # options that belong to the run, not to the plugin's factory
 NON_FACTORY_KEYS = {"prompt": {"k"}}

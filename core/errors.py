@@ -19,6 +19,15 @@ class LLMError(XicmError):
     kind = "llm_error"
 
 
+class EpisodeFailure(XicmError):
+    """Ends an episode as a failure of a given kind; the run goes on."""
+
+    def __init__(self, kind: str, message: str):
+        super().__init__(message)
+        self.kind = kind
+        self.message = message
+
+
 # Error kinds recorded in episodes.jsonl.
 ERROR_KINDS = (
     "parse_error",  # the reply held no usable 7-integer action
@@ -29,5 +38,7 @@ ERROR_KINDS = (
     "retrieval_error",  # the retriever failed
     "max_steps",  # the step budget ran out without success
     "max_llm_calls",  # the LLM-call budget ran out without success
+    "no_actions",  # the policy returned no action
+    "solution_ended",  # the scripted solution (oracle policy) ran out without success
     "internal_error",  # an unexpected exception in our own code (a bug: please report it)
 )

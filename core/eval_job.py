@@ -10,14 +10,12 @@ from typing import Any
 from omegaconf import DictConfig, OmegaConf
 
 from xicm.core import build, report
-from xicm.core.agent import XICMAgent
+from xicm.core.episode import run_episode
 from xicm.core.errors import ConfigError
+from xicm.core.interfaces import PolicyContext
 from xicm.core.evaluate import episode_keys, run_episodes, write_json_atomic, write_text_atomic
-from xicm.core.oracle import OracleAgent
 from xicm.core.plugins import describe_plugins, get_registry
 from xicm.core.tracking import Tracker
-
-POLICIES = ("xicm", "oracle")
 
 # Keys that may change between an interrupted run and its resumption.
 RESUMABLE_KEYS = ("seeds", "episodes", "progress", "tracking", "paths", "llm_cache", "run_name", "collect")
@@ -46,26 +44,16 @@ def check_resume(out_dir: Path, cfg: DictConfig) -> None:
 def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     registry = get_registry()
     tasks = list(cfg.benchmark.tasks)
-    policy = str(cfg.policy.name)
-    if policy not in POLICIES:
-        raise ConfigError(f"unknown policy {policy!r}; available: {', '.join(POLICIES)}")
     build.check_names(cfg, registry, tasks)
-    pool_path, pool = None, []
-    if policy == "xicm":
-        pool_path = build.check_pool(cfg.pool_path)
     check_resume(out_dir, cfg)
     out_dir.mkdir(parents=True, exist_ok=True)
-
-    if policy == "xicm":
-        from xicm.core.dataset import load_pool
-
-        pool = load_pool(pool_path, tasks=list(cfg.benchmark.pool_tasks), with_images=True)
-        if not pool:
-            raise ConfigError(f"the pool {pool_path} holds no demos of {list(cfg.benchmark.pool_tasks)}; collect them first")
 
     plugins = describe_plugins(registry.pm)
     simulator = registry.create("simulator", build.options(cfg, "simulator"))
     try:
+        context = PolicyContext(cfg=cfg, registry=registry, simulator=simulator)
+        policy = registry.create("policy", build.options(cfg, "policy"), context=context)
+        pool = getattr(policy, "pool", None)
         splits = {t: simulator.task_info(t).split for t in tasks}
         write_json_atomic(
             out_dir / "run.json",
@@ -73,14 +61,13 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
                 "fingerprint": config_fingerprint(cfg),
                 "tasks": tasks,
                 "splits": splits,
-                "policy": policy,
-                "pool": None if pool_path is None else str(pool_path),
-                "pool_size": len(pool),
+                "policy": cfg.policy.name,
+                "pool": None if pool is None else str(cfg.pool_path),
+                "pool_size": None if pool is None else len(pool),
                 "plugins": plugins,
                 "config": OmegaConf.to_container(cfg, resolve=True),
             },
         )
-        agent = build_agent(cfg, registry, simulator, pool) if policy == "xicm" else OracleAgent(simulator, int(cfg.max_steps))
         tracker = Tracker(
             mode=cfg.tracking.mode,
             project=cfg.tracking.project,
@@ -90,8 +77,9 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         )
         try:
             keys = episode_keys(tasks, cfg.seeds, cfg.episodes)
+            max_steps = int(cfg.max_steps)
             rows = run_episodes(
-                agent.run_episode,
+                lambda task, seed, episode: run_episode(simulator, policy, task, seed, episode, max_steps),
                 keys,
                 out_dir,
                 progress=bool(cfg.progress),
@@ -106,23 +94,6 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     finally:
         simulator.close()
     return summary
-
-
-def build_agent(cfg: DictConfig, registry, simulator, pool) -> XICMAgent:
-    encoder = build.build_encoder(cfg, registry)
-    retriever = build.build_retriever(cfg, registry, encoder)
-    retriever.prepare(pool)
-    return XICMAgent(
-        simulator=simulator,
-        detector=registry.create("detector", build.options(cfg, "detector")),
-        retriever=retriever,
-        prompt_builder=registry.create("prompt", build.options(cfg, "prompt")),
-        llm=build.build_llm(cfg, registry),
-        pool=pool,
-        k=int(cfg.prompt.k),
-        max_steps=int(cfg.max_steps),
-        max_llm_calls=cfg.max_llm_calls,
-    )
 
 
 def write_report(rows: list[dict[str, Any]], splits: dict[str, str], tasks: list[str], out_dir: Path) -> dict[str, Any]:

@@ -1,7 +1,8 @@
 """The hooks a plugin may implement. Each hands the plugin a `register(name, factory)` callback.
 
 A factory is called as `factory(**options)` with the options of the chosen config (minus
-`name`); retriever factories also get `encoder=`. It returns an instance of the matching
+`name`); retriever factories also get `encoder=`, policy factories `context=` (a
+xicm.core.interfaces.PolicyContext: the run's config, the registry and the live simulator). It returns an instance of the matching
 class in xicm.core.interfaces (tasks: a task class of the simulator named in the call).
 """
 
@@ -44,3 +45,8 @@ def register_prompt_builders(register):
 @hookspec
 def register_llms(register):
     """Register LLM factories: register(name, factory)."""
+
+
+@hookspec
+def register_policies(register):
+    """Register policy factories: register(name, factory); factories receive context=."""

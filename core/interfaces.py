@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -50,6 +52,11 @@ class Simulator(ABC):
     @abstractmethod
     def is_success(self) -> bool:
         """Whether the current state satisfies the task's success condition."""
+
+    def scripted_solution(self) -> Iterator[KeyAction]:
+        """The current task's scripted solution, one key action at a time, each computed from the
+        true state after the previous one was executed (what the oracle policy plays)."""
+        raise NotImplementedError(f"{type(self).__name__} has no scripted solutions")
 
     @abstractmethod
     def demonstrate(self) -> Trajectory:
@@ -108,3 +115,39 @@ class LLM(ABC):
     def identity(self) -> str:
         """Model and decoding settings; part of the response-cache key."""
         return type(self).__name__
+
+
+class Policy(ABC):
+    """Maps observations (with the instruction in them) to key actions, one episode at a time.
+
+    The episode runner (xicm.core.episode) resets the simulator, calls `reset`, then asks
+    `act` for actions and executes them one by one until the task succeeds or the step budget
+    is spent; when the actions run out it observes again and asks `act` once more. To give up,
+    raise xicm.core.errors.EpisodeFailure(kind, message).
+    """
+
+    #: False for policies that read the simulator's true state (the oracle): the runner then
+    #: skips rendering a new observation between calls of `act` and passes the first one again.
+    observes: bool = True
+
+    def reset(self, task: str, obs: Observation, rng: np.random.Generator) -> None:
+        """Start an episode of `task`; `rng` is the episode's own generator for random choices."""
+
+    @abstractmethod
+    def act(self, obs: Observation) -> list[KeyAction]:
+        """The next key actions (at least one) for the current observation."""
+
+    def record(self) -> dict:
+        """Facts about the episode so far for episodes.jsonl: any of `retrieved`, `prompt_hash`,
+        `responses`, `timings` (seconds per stage) and `extra` (anything JSON-serialisable)."""
+        return {}
+
+
+@dataclass
+class PolicyContext:
+    """What a policy factory may build from: the run's config (all groups), the plugin
+    registry (to create other plugins by name) and the run's live simulator."""
+
+    cfg: Any
+    registry: Any
+    simulator: Simulator

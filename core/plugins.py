@@ -23,6 +23,8 @@ BUILTIN_PLUGINS = (
     "xicm.plugins.llms.transformers_local",
     "xicm.plugins.llms.openai_compatible",
     "xicm.plugins.llms.nearest_demo",
+    "xicm.plugins.policies.xicm",
+    "xicm.plugins.policies.oracle",
 )
 
 #: plugin family -> hook that fills it
@@ -34,6 +36,7 @@ KINDS = {
     "retriever": "register_retrievers",
     "prompt": "register_prompt_builders",
     "llm": "register_llms",
+    "policy": "register_policies",
 }
 
 

@@ -73,7 +73,7 @@ def test_describe_plugins_gives_name_version_and_hooks(registry):
 
 def test_every_hookspec_has_a_one_line_docstring_and_a_family():
     specs = [f for name, f in inspect.getmembers(hookspecs, inspect.isfunction) if name.startswith("register_")]
-    assert len(specs) == 7
+    assert len(specs) == 8
     for f in specs:
         assert f.__doc__ and "\n" not in f.__doc__.strip(), f.__name__
         assert f.__name__ in plugins.KINDS.values()

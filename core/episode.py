@@ -1,0 +1,90 @@
+"""One evaluation episode of any policy: the single path every policy is evaluated through.
+
+    obs = simulator.reset(task, seed, episode); policy.reset(task, obs, rng)
+    until success or max_steps key actions: execute policy.act(obs) one by one, then observe
+
+A failed episode never raises: its kind and one-sentence reason go into the EpisodeResult.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+
+from xicm.core.errors import EpisodeFailure, LLMError
+from xicm.core.interfaces import Policy, Simulator
+from xicm.core.seeding import episode_rng
+from xicm.core.types import EpisodeResult
+
+
+def run_episode(
+    simulator: Simulator, policy: Policy, task: str, seed: int, episode: int, max_steps: int = 25
+) -> EpisodeResult:
+    result = EpisodeResult(task=task, seed=int(seed), episode=int(episode), success=False, steps=0)
+    timings: dict[str, float] = {}
+    start = time.perf_counter()
+    try:
+        _loop(simulator, policy, result, int(max_steps), timings)
+    except EpisodeFailure as failure:
+        result.error_kind, result.error_message = failure.kind, failure.message
+    except LLMError as exc:
+        result.error_kind, result.error_message = exc.kind, str(exc)
+    except Exception as exc:  # a bug in a plugin or in our code: record it, keep the run going
+        result.error_kind = "internal_error"
+        result.error_message = f"{type(exc).__name__}: {exc} | {last_frame(exc)}"
+    try:
+        record = policy.record()
+    except Exception as exc:  # noqa: BLE001
+        record = {"extra": {"record_error": f"{type(exc).__name__}: {exc}"}}
+    for key in ("retrieved", "prompt_hash", "responses", "extra"):
+        if key in record:
+            setattr(result, key, record[key])
+    timings.update(record.get("timings", {}))
+    result.timings = {k: round(v, 4) for k, v in timings.items()}
+    result.timings["total"] = round(time.perf_counter() - start, 4)
+    return result
+
+
+def _loop(simulator: Simulator, policy: Policy, result: EpisodeResult, max_steps: int, timings: dict) -> None:
+    def timed(stage: str, fn, *args):
+        t0 = time.perf_counter()
+        try:
+            return fn(*args)
+        finally:
+            timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
+
+    try:
+        obs = timed("reset", simulator.reset, result.task, result.seed, result.episode)
+    except Exception as exc:
+        raise EpisodeFailure("sim_error", f"reset failed: {type(exc).__name__}: {exc}") from exc
+    policy.reset(result.task, obs, episode_rng(result.seed, result.task, result.episode, stream="policy"))
+    while result.steps < max_steps:
+        actions = policy.act(obs)
+        if not actions:
+            raise EpisodeFailure("no_actions", "the policy returned no action")
+        for action in actions:
+            if result.steps >= max_steps:
+                break
+            outcome = timed("execute", simulator.execute, action)
+            result.steps += 1
+            if not outcome.ok:
+                raise EpisodeFailure(outcome.error_kind or "sim_error", outcome.error_message or "step failed")
+            if outcome.success:
+                result.success = True
+                return
+        if not policy.observes:
+            continue  # it reads the true state instead: do not render for nothing
+        try:
+            obs = timed("observe", simulator.observe)
+        except Exception as exc:
+            raise EpisodeFailure("sim_error", f"observe failed: {type(exc).__name__}: {exc}") from exc
+    raise EpisodeFailure("max_steps", f"no success within {max_steps} key actions")
+
+
+def last_frame(exc: BaseException) -> str:
+    """file:line where an exception was raised (kept short for episodes.jsonl)."""
+    frames = traceback.extract_tb(exc.__traceback__)
+    if not frames:
+        return ""
+    f = frames[-1]
+    return f"{f.filename.rsplit('/', 1)[-1]}:{f.lineno}"
