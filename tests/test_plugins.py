@@ -101,3 +101,24 @@ def test_an_option_the_plugin_does_not_take_is_a_config_error(registry):
 
     with pytest.raises(ConfigError, match="detector 'oracle' got an option it does not take: .*colour"):
         registry.create("detector", {"name": "oracle", "colour": "red"})
+
+
+def test_docs_list_every_hook_and_every_interface_method_with_its_signature():
+    import re
+    from pathlib import Path
+
+    from xicm.core import interfaces
+
+    doc = (Path(__file__).parents[1] / "docs" / "plugins.md").read_text()
+    for name, f in inspect.getmembers(hookspecs, inspect.isfunction):
+        if name.startswith("register_"):
+            assert f"`{name}(register)`" in doc, name
+    families = [interfaces.Simulator, interfaces.Detector, interfaces.Encoder, interfaces.Retriever,
+                interfaces.PromptBuilder, interfaces.LLM, interfaces.Policy]
+    for cls in families:
+        assert f"**{cls.__name__}**" in doc, cls.__name__
+        for name, f in vars(cls).items():
+            if callable(f) and not name.startswith("_"):
+                sig = str(inspect.signature(f)).replace("'", "")
+                sig = re.sub(r"^\(self,? ?", "(", sig)
+                assert f"`{name}{sig}`" in doc, f"{cls.__name__}.{name}{sig} is not documented in docs/plugins.md"
