@@ -55,6 +55,8 @@ def plugins_main() -> None:
     registry = get_registry()
     for row in describe_plugins(registry.pm):
         print(f"{row['name']} {row['version']}: {', '.join(row['hooks'])}")
+    for name, why in sorted(registry.failed.items()):
+        print(f"{name}: NOT LOADED ({why})")
     print()
     for kind in KINDS:
         print(f"{kind}: {', '.join(registry.names(kind)) or '-'}")

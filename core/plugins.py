@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import importlib
+import logging
+import os
 from dataclasses import dataclass
 from importlib import metadata
 from typing import Any, Callable
@@ -10,6 +12,8 @@ from typing import Any, Callable
 import pluggy
 
 from xicm.core import hookspecs
+
+log = logging.getLogger(__name__)
 
 #: Built-in plugins. They are also declared as entry points in pyproject.toml; this list makes
 #: them load even when the package metadata is stale (e.g. a source checkout on sys.path).
@@ -61,12 +65,19 @@ class Registry:
 
     def __init__(self, pm: pluggy.PluginManager):
         self.pm = pm
+        self.failed: dict[str, str] = dict(getattr(pm, "xicm_failed", {}))
         self._entries: dict[str, dict[str, Registration]] = {kind: {} for kind in KINDS}
         for kind, hook_name in KINDS.items():
             hook = getattr(pm.hook, hook_name)
             for impl in hook.get_hookimpls():
                 plugin_name = pm.get_name(impl.plugin) or repr(impl.plugin)
-                impl.function(register=self._register_fn(kind, plugin_name))
+                try:
+                    impl.function(register=self._register_fn(kind, plugin_name))
+                except PluginConflictError:
+                    raise
+                except Exception as exc:  # noqa: BLE001 - report it by name, keep the other plugins
+                    self.failed[plugin_name] = f"{hook_name} raised {type(exc).__name__}: {exc}"
+                    log.warning("plugin %s: %s", plugin_name, self.failed[plugin_name])
 
     def _register_fn(self, kind: str, plugin_name: str):
         def register(name: str, factory: Callable[..., Any], **extra: Any) -> None:
@@ -89,7 +100,8 @@ class Registry:
             return self._entries[kind][name]
         except KeyError:
             available = ", ".join(self.names(kind)) or "none"
-            raise UnknownPluginError(f"unknown {kind} '{name}'; available: {available}") from None
+            broken = "".join(f"; plugin {p} failed to load ({why})" for p, why in sorted(self.failed.items()))
+            raise UnknownPluginError(f"unknown {kind} '{name}'; available: {available}{broken}") from None
 
     def create(self, kind: str, options: dict[str, Any], **deps: Any) -> Any:
         """Build the plugin named by options['name'] with the remaining options."""
@@ -97,25 +109,81 @@ class Registry:
         if "name" not in options:
             raise UnknownPluginError(f"the {kind} config has no 'name'; available: {', '.join(self.names(kind))}")
         reg = self.get(kind, options.pop("name"))
+        from xicm.core.errors import ConfigError
+
         try:
-            return reg.factory(**options, **deps)
+            built = reg.factory(**options, **deps)
         except TypeError as exc:
             if "unexpected keyword argument" not in str(exc):
                 raise
-            from xicm.core.errors import ConfigError
-
             raise ConfigError(f"{kind} '{reg.name}' got an option it does not take: {exc}") from None
+        missing = missing_methods(kind, built)
+        if missing:
+            raise ConfigError(
+                f"{kind} '{reg.name}' (plugin {reg.plugin}) built a {type(built).__name__}, which lacks "
+                f"{', '.join(missing)} of the {kind} interface (xicm.core.interfaces)"
+            )
+        return built
+
+
+def missing_methods(kind: str, obj: Any) -> list[str]:
+    """The interface methods of `kind` that `obj` does not have (duck typing: no subclassing needed)."""
+    from xicm.core import interfaces
+
+    cls = {
+        "simulator": interfaces.Simulator,
+        "detector": interfaces.Detector,
+        "encoder": interfaces.Encoder,
+        "retriever": interfaces.Retriever,
+        "prompt": interfaces.PromptBuilder,
+        "llm": interfaces.LLM,
+        "policy": interfaces.Policy,
+    }.get(kind)
+    if cls is None or isinstance(obj, cls):
+        return []
+    return sorted(m for m in cls.__abstractmethods__ if not callable(getattr(obj, m, None)))
 
 
 def make_plugin_manager(load_entry_points: bool = True) -> pluggy.PluginManager:
+    """Built-in plugins plus the `xicm` entry points that pass XICM_LOAD_PLUGINS / XICM_DISABLE_PLUGINS.
+
+    A plugin that fails to import is left out and remembered in `pm.xicm_failed` (name ->
+    reason): runs that do not use it go on, and asking for one of its names says why it is missing.
+    """
     pm = pluggy.PluginManager("xicm")
     pm.add_hookspecs(hookspecs)
-    if load_entry_points:
-        pm.load_setuptools_entrypoints("xicm")
+    pm.xicm_failed = {}  # type: ignore[attr-defined]
+    pm.xicm_versions = {}  # type: ignore[attr-defined]
+    allowed, disabled = _env_list("XICM_LOAD_PLUGINS"), set(_env_list("XICM_DISABLE_PLUGINS") or ())
+    for ep in metadata.entry_points(group="xicm") if load_entry_points else ():
+        dist = getattr(ep, "dist", None)
+        names = {ep.name, ep.value, getattr(dist, "name", None)}
+        builtin = ep.value in BUILTIN_PLUGINS
+        if names & disabled or (allowed is not None and not builtin and not names & set(allowed)):
+            continue
+        if pm.get_plugin(ep.name) is not None or _is_registered_module(pm, ep.value):
+            continue
+        try:
+            pm.register(ep.load(), name=ep.name)
+        except Exception as exc:  # noqa: BLE001 - a broken plugin must not take down the others
+            pm.xicm_failed[ep.name] = f"{type(exc).__name__}: {exc}"
+            log.warning("plugin %s (%s) was not loaded: %s", ep.name, ep.value, pm.xicm_failed[ep.name])
+            continue
+        pm.xicm_versions[ep.name] = dist.version if dist is not None else "unknown"
     for module_name in BUILTIN_PLUGINS:
+        if module_name in disabled or module_name.rsplit(".", 1)[-1] in disabled:
+            continue
         if pm.get_plugin(module_name) is None and not _is_registered_module(pm, module_name):
             pm.register(importlib.import_module(module_name), name=module_name)
     return pm
+
+
+def _env_list(var: str) -> list[str] | None:
+    """A comma-separated environment variable as a list (None when unset)."""
+    value = os.environ.get(var)
+    if value is None:
+        return None
+    return [part.strip() for part in value.split(",") if part.strip()]
 
 
 def _is_registered_module(pm: pluggy.PluginManager, module_name: str) -> bool:
@@ -145,8 +213,7 @@ def describe_plugins(pm: pluggy.PluginManager) -> list[dict[str, Any]]:
     for plugin in pm.get_plugins():
         name = pm.get_name(plugin) or repr(plugin)
         hooks = sorted(h.name for h in pm.get_hookcallers(plugin) or [])
-        dist = next((d for p, d in pm.list_plugin_distinfo() if p is plugin), None)
-        version = dist.version if dist is not None else _module_version(name)
+        version = getattr(pm, "xicm_versions", {}).get(name) or _module_version(name)
         rows.append({"name": name, "version": version, "hooks": hooks})
     return sorted(rows, key=lambda r: r["name"])
 

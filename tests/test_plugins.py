@@ -7,7 +7,16 @@ import pytest
 import xicm
 
 from xicm.core import hookspecs, plugins
+from xicm.core.errors import ConfigError
 from xicm.core.hookspecs import hookimpl
+
+
+class Echo:
+    def __init__(self, reply="[[1, 2, 3, 4, 5, 6, 1]]"):
+        self.reply = reply
+
+    def complete(self, prompt):
+        return self.reply
 
 
 class ThrowawayPlugin:
@@ -15,7 +24,8 @@ class ThrowawayPlugin:
 
     @hookimpl
     def register_llms(self, register):
-        register("echo_for_test", lambda reply="[[1, 2, 3, 4, 5, 6, 1]]": reply)
+        register("echo_for_test", Echo)
+        register("not_an_llm", lambda: "a string")
 
 
 @pytest.fixture
@@ -47,7 +57,9 @@ def test_a_throwaway_plugin_registers_and_unregisters():
     plugin = ThrowawayPlugin()
     pm.register(plugin, name="throwaway")
     reg = plugins.Registry(pm)
-    assert reg.create("llm", {"name": "echo_for_test", "reply": "hi"}) == "hi"
+    assert reg.create("llm", {"name": "echo_for_test", "reply": "hi"}).complete(None) == "hi"  # duck typing is enough
+    with pytest.raises(ConfigError, match=r"llm 'not_an_llm' \(plugin throwaway\) built a str, which lacks complete of"):
+        reg.create("llm", {"name": "not_an_llm"})
     assert reg.get("llm", "echo_for_test").plugin == "throwaway"
     pm.unregister(plugin)
     assert "echo_for_test" not in plugins.Registry(pm).names("llm")
@@ -122,3 +134,57 @@ def test_docs_list_every_hook_and_every_interface_method_with_its_signature():
                 sig = str(inspect.signature(f)).replace("'", "")
                 sig = re.sub(r"^\(self,? ?", "(", sig)
                 assert f"`{name}{sig}`" in doc, f"{cls.__name__}.{name}{sig} is not documented in docs/plugins.md"
+
+
+
+def _fake_distribution(root, dist, module, source, entry_points):
+    """A plugin package 'installed' into `root` (a folder put on sys.path): module + dist-info."""
+    (root / f"{module}.py").write_text(source)
+    info = root / f"{dist}-0.3.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: 0.3\n")
+    (info / "entry_points.txt").write_text("[xicm]\n" + "".join(f"{n} = {v}\n" for n, v in entry_points.items()))
+
+
+@pytest.fixture
+def third_party(tmp_path, monkeypatch):
+    _fake_distribution(tmp_path, "xicm_broken", "xicm_broken", "import no_such_module_anywhere\n", {"broken": "xicm_broken"})
+    _fake_distribution(
+        tmp_path, "xicm_raises", "xicm_raises",
+        "from xicm.core.hookspecs import hookimpl\n@hookimpl\ndef register_llms(register):\n    raise RuntimeError('no licence key')\n",
+        {"raises": "xicm_raises"},
+    )
+    _fake_distribution(
+        tmp_path, "xicm_good", "xicm_good",
+        "from xicm.core.hookspecs import hookimpl\nclass Parrot:\n    def complete(self, prompt):\n        return 'ok'\n"
+        "@hookimpl\ndef register_llms(register):\n    register('parrot', Parrot)\n",
+        {"good": "xicm_good"},
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for var in ("XICM_LOAD_PLUGINS", "XICM_DISABLE_PLUGINS"):
+        monkeypatch.delenv(var, raising=False)
+    return monkeypatch
+
+
+def test_broken_third_party_plugins_are_named_and_do_not_stop_the_others(third_party):
+    reg = plugins.Registry(plugins.make_plugin_manager())
+    assert reg.failed["broken"].startswith("ModuleNotFoundError: No module named 'no_such_module_anywhere'")
+    assert reg.failed["raises"] == "register_llms raised RuntimeError: no licence key"
+    assert reg.create("llm", {"name": "parrot"}).complete(None) == "ok"
+    assert "nearest_demo" in reg.names("llm") and "sapien" in reg.names("simulator")
+    rows = {r["name"]: r for r in plugins.describe_plugins(reg.pm)}
+    assert rows["good"]["version"] == "0.3"
+    with pytest.raises(plugins.UnknownPluginError, match=r"unknown llm 'x'; .*plugin broken failed to load \(ModuleNotFoundError"):
+        reg.get("llm", "x")
+
+
+def test_load_and_disable_lists_choose_the_plugins(third_party):
+    third_party.setenv("XICM_LOAD_PLUGINS", "xicm_good")  # a distribution name; built-ins always load
+    reg = plugins.Registry(plugins.make_plugin_manager())
+    assert reg.failed == {} and "parrot" in reg.names("llm") and "nearest_demo" in reg.names("llm")
+    third_party.setenv("XICM_LOAD_PLUGINS", "")
+    assert "parrot" not in plugins.Registry(plugins.make_plugin_manager()).names("llm")
+    third_party.delenv("XICM_LOAD_PLUGINS")
+    third_party.setenv("XICM_DISABLE_PLUGINS", "broken, raises, nearest_demo")
+    reg = plugins.Registry(plugins.make_plugin_manager())
+    assert reg.failed == {} and "parrot" in reg.names("llm") and "nearest_demo" not in reg.names("llm")
