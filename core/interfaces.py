@@ -11,6 +11,7 @@ import numpy as np
 
 from xicm.core.types import (
     Demo,
+    JointAction,
     KeyAction,
     Observation,
     Prompt,
@@ -46,8 +47,8 @@ class Simulator(ABC):
         """Render the cameras (only the named ones if given) and return the current observation."""
 
     @abstractmethod
-    def execute(self, action: KeyAction) -> StepOutcome:
-        """Move to the key pose, then set the gripper; never raises for a bad pose."""
+    def execute(self, action: KeyAction | JointAction) -> StepOutcome:
+        """Move to the key pose (or joint target), then set the gripper; never raises for a bad pose."""
 
     @abstractmethod
     def is_success(self) -> bool:
@@ -134,8 +135,8 @@ class Policy(ABC):
         """Start an episode of `task`; `rng` is the episode's own generator for random choices."""
 
     @abstractmethod
-    def act(self, obs: Observation) -> list[KeyAction]:
-        """The next key actions (at least one) for the current observation."""
+    def act(self, obs: Observation) -> list[KeyAction | JointAction]:
+        """The next key actions or joint targets (at least one) for the current observation."""
 
     def record(self) -> dict:
         """Facts about the episode so far for episodes.jsonl: any of `retrieved`, `prompt_hash`,

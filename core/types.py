@@ -17,6 +17,15 @@ class KeyAction:
     gripper_open: bool
 
 
+@dataclass(frozen=True)
+class JointAction:
+    """A target configuration of the arm's joints (radians) and the gripper state to set after
+    reaching it: what joint-space policies (e.g. VLAs trained on joint targets) return."""
+
+    positions: tuple[float, ...]
+    gripper_open: bool
+
+
 @dataclass
 class CameraFrame:
     """One camera's picture. Extrinsics use the OpenCV convention (x right, y down, z forward)."""

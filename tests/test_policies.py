@@ -85,3 +85,20 @@ def test_a_simulator_without_scripted_solutions_says_so(sim):
     bare = Bare.__new__(Bare)
     with pytest.raises(NotImplementedError, match="Bare has no scripted solutions"):
         bare.scripted_solution()
+
+
+def test_joint_actions_are_executed_like_key_actions(sim):
+    import numpy as np
+    import sapien
+
+    from xicm.core.types import JointAction
+
+    sim.reset_state("close_microwave", 0, 0)
+    q0 = sim.robot.arm_qpos()
+    target = sim.robot.ik(sim.robot.tcp_pose_at(q0) * sapien.Pose([0.0, 0.05, 0.05]), q0)
+    assert target is not None
+    policy = Scripted([JointAction(tuple(target), False)], [JointAction((9.0,) * 7, True)])
+    result = run_episode(sim, policy, "close_microwave", 0, 0)
+    assert result.steps == 2 and result.error_kind == "unreachable" and "outside the Panda's limits" in result.error_message
+    np.testing.assert_allclose(sim.robot.arm_qpos(), target, atol=0.02)
+    assert not sim.robot.gripper_open

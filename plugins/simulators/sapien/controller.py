@@ -273,6 +273,14 @@ class Controller:
         angle = quat_angle(np.asarray(start.q), np.asarray(target.q))
         self.follow(path, length, angle)
 
+    def move_joints(self, q1: np.ndarray) -> None:
+        """Follow a straight joint-space line to the arm configuration q1."""
+        q0 = self._hold_q.copy()
+        n = max(1, int(math.ceil(np.max(np.abs(q1 - q0)) / 0.02)))
+        start, end = self.robot.tcp_pose_at(q0), self.robot.tcp_pose_at(q1)
+        length = float(np.linalg.norm(np.asarray(end.p) - np.asarray(start.p)))
+        self.follow(np.linspace(q0, q1, n + 1), length, quat_angle(np.asarray(start.q), np.asarray(end.q)))
+
     def set_gripper(self, open_: bool) -> None:
         """Open or close the fingers and wait until they stop (fully open/closed, or holding)."""
         if open_ == self.robot.gripper_open:

@@ -9,7 +9,7 @@ import sapien
 
 from xicm.core.interfaces import Simulator
 from xicm.core.seeding import episode_rng
-from xicm.core.types import KeyAction, Observation, StepOutcome, TaskInfo, Trajectory
+from xicm.core.types import JointAction, KeyAction, Observation, StepOutcome, TaskInfo, Trajectory
 
 from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
@@ -156,9 +156,11 @@ class SapienSimulator(Simulator):
             return f"position {np.round(p, 3).tolist()} is below the table top (z = {TABLE_TOP_Z} m)"
         return None
 
-    def execute(self, action: KeyAction) -> StepOutcome:
+    def execute(self, action: KeyAction | JointAction) -> StepOutcome:
         try:
             self._require_task()
+            if isinstance(action, JointAction):
+                return self._execute_joints(action)
             problem = self.check_pose(action)
             if problem is not None:
                 return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=problem)
@@ -172,6 +174,21 @@ class SapienSimulator(Simulator):
             return StepOutcome(ok=True, success=self.is_success())
         except Exception as exc:  # noqa: BLE001 - a simulator failure must not crash the run
             return StepOutcome(False, False, error_kind="sim_error", error_message=f"{type(exc).__name__}: {exc}")
+
+    def _execute_joints(self, action: JointAction) -> StepOutcome:
+        """A straight joint-space line to the target, then the gripper."""
+        q = np.asarray(action.positions, dtype=float)
+        lo, hi = self.robot.qlimits[:, 0], self.robot.qlimits[:, 1]
+        if q.shape != (len(lo),) or not np.all(np.isfinite(q)):
+            why = f"a joint action needs {len(lo)} finite arm joint positions, got {np.asarray(action.positions).shape}"
+            return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=why)
+        if np.any(q < lo - 1e-6) or np.any(q > hi + 1e-6):
+            bad = [int(j) + 1 for j in np.nonzero((q < lo - 1e-6) | (q > hi + 1e-6))[0]]
+            why = f"joint target outside the Panda's limits at joint(s) {bad}"
+            return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=why)
+        self.controller.move_joints(q)
+        self.controller.set_gripper(bool(action.gripper_open))
+        return StepOutcome(ok=True, success=self.is_success())
 
     def is_success(self) -> bool:
         self._require_task()
