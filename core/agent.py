@@ -39,7 +39,7 @@ class XICMPolicy(Policy):
         self.task, self.rng = task, rng
         self.demos: list[Demo] | None = None
         self.llm_calls = 0
-        self._record: dict = {"retrieved": [], "prompt_hash": None, "responses": []}
+        self._record: dict = {"retrieved": [], "prompt_hash": None, "responses": [], "extra": {}}
         self._timings: dict[str, float] = {}
 
     def act(self, obs: Observation) -> list[KeyAction]:
@@ -48,7 +48,11 @@ class XICMPolicy(Policy):
         with self._stage("detect", "detector_error"):
             objects = self.detector.detect(obs, list(obs.object_names))
         front = obs.cameras.get("front")
-        query = Query(self.task, obs.instruction, objects, None if front is None else front.rgb)
+        missing = tuple(n for n in obs.object_names if n not in objects)
+        query = Query(self.task, obs.instruction, objects, None if front is None else front.rgb, missing)
+        if missing:
+            seen = self._record["extra"].setdefault("not_detected", [])
+            seen.extend(n for n in missing if n not in seen)
         if self.demos is None:  # demos are chosen once, from the first observation
             with self._stage("retrieve", "retrieval_error"):
                 chosen = self.retriever.select(query, self.pool, self.k, self.rng)

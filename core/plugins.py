@@ -20,6 +20,7 @@ log = logging.getLogger(__name__)
 BUILTIN_PLUGINS = (
     "xicm.plugins.simulators.sapien",
     "xicm.plugins.detectors.oracle",
+    "xicm.plugins.detectors.noisy_oracle",
     "xicm.plugins.retrievers.random",
     "xicm.plugins.retrievers.similarity",
     "xicm.plugins.encoders.minilm",

@@ -106,6 +106,7 @@ class Query:
     instruction: str
     objects: dict[str, tuple[float, float, float]]
     front_rgb: np.ndarray | None = None
+    missing: tuple[str, ...] = ()  # object names the detector did not find (the prompt says so)
 
 
 @dataclass

@@ -102,3 +102,10 @@ def test_actions_that_do_nothing_run_out_of_steps_and_reask_the_llm(sim, smoke_p
     r = _agent(sim, pool, llm, max_steps=5).run_episode("close_microwave", 0, 0)
     assert r.error_kind == "max_steps" and r.steps == 5
     assert len(r.responses) == 3  # 2 + 2 + 1 actions: the LLM was asked again twice
+
+
+def test_objects_not_detected_are_recorded_with_the_episode(sim, smoke_pool):
+    _, pool = smoke_pool
+    blind = get_registry().create("detector", {"name": "noisy_oracle", "drop_prob": 1.0})
+    r = _agent(sim, pool, ScriptedReply("[[1, 2, 3, 0, 36, 36, 1]]"), detector=blind, max_steps=1).run_episode("close_microwave", 0, 0)
+    assert r.extra["not_detected"] == ["microwave", "microwave door", "microwave door handle"]

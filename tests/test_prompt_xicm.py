@@ -84,3 +84,13 @@ def test_system_prompt_override_and_no_demos():
     assert p.messages[0] == {"role": "system", "content": "Be brief."}
     assert p.messages[1]["content"].startswith("turn on the light. Objects: lamp [")  # no double period
     assert [m["role"] for m in builder(system_prompt="").build([], q, WS).messages] == ["user"]
+
+
+def test_objects_the_detector_missed_are_named_as_not_detected():
+    query = Query("close_fridge", "close fridge", {"fridge": (0.2, 0.1, 1.0)}, missing=("fridge top door", "handle"))
+    p = builder().build([], query, WS)
+    voxel = encoding.format_ints(encoding.position_to_voxel((0.2, 0.1, 1.0), WS))
+    assert p.messages[1]["content"] == f"close fridge. Objects: fridge {voxel}, fridge top door not detected, handle not detected >"
+    assert "'not detected'" in p.messages[0]["content"]
+    nothing = builder().build([], Query("t", "do it", {}, missing=("cup",)), WS)
+    assert nothing.messages[1]["content"] == "do it. Objects: cup not detected >"

@@ -24,7 +24,8 @@ SYSTEM_PROMPT = (
     "You control a Franka Panda robot arm that has a parallel-jaw gripper. "
     "You will see examples of tabletop tasks, one per line, each written as "
     '"<instruction>. Objects: <objects> > <action list>". '
-    "<objects> gives each relevant object's name followed by the [x, y, z] voxel of its centre. "
+    "<objects> gives each relevant object's name followed by the [x, y, z] voxel of its centre, "
+    "or by 'not detected' when the robot could not find it. "
     "The action list is the sequence of key poses the gripper moved through; every action is a "
     "list of 7 integers [x, y, z, roll, pitch, yaw, gripper_open]. "
     "x, y and z are voxel indices (0 to 99) on a 100x100x100 grid laid over the workspace. "
@@ -36,11 +37,12 @@ SYSTEM_PROMPT = (
 )
 
 
-def task_line(instruction: str, objects: dict, workspace: Box) -> str:
-    """'{instruction}. Objects: {objects} >' (without the actions)."""
+def task_line(instruction: str, objects: dict, workspace: Box, missing=()) -> str:
+    """'{instruction}. Objects: {objects} >' (without the actions); missing names say 'not detected'."""
     text = instruction.strip().rstrip(".").strip()
-    objs = encoding.format_objects(objects, workspace) if objects else "none"
-    return f"{text}. Objects: {objs} >"
+    parts = [encoding.format_objects(objects, workspace)] if objects else []
+    parts += [f"{name} not detected" for name in missing]
+    return f"{text}. Objects: {', '.join(parts) or 'none'} >"
 
 
 def demo_line(demo: Demo, workspace: Box) -> str:
@@ -53,7 +55,7 @@ class XicmPromptBuilder(PromptBuilder):
 
     def build(self, demos: list[Demo], query: Query, workspace: Box) -> Prompt:
         lines = [demo_line(d, workspace) for d in demos]
-        lines.append(task_line(query.instruction, query.objects, workspace))
+        lines.append(task_line(query.instruction, query.objects, workspace, query.missing))
         messages = []
         if self.system_prompt:
             messages.append({"role": "system", "content": self.system_prompt})
