@@ -71,7 +71,10 @@ def report_main(argv: list[str] | None = None) -> None:
 
     args = sys.argv[1:] if argv is None else argv
     if not args or args[0] in ("-h", "--help"):
-        print("usage: xicm-report RUN_DIR [RUN_DIR ...]  (folders holding episodes.jsonl and run.json)")
+        print(
+            "usage: xicm-report DIR [DIR ...]  (xicm-eval output folders, or folders above several of them:\n"
+            "a folder with several runs, e.g. a multirun, also gets sweep.md/.csv/.json/.png over the swept keys)"
+        )
         sys.exit(0 if args else 2)
     for arg in args:
         run_dirs = sorted(p.parent for p in Path(arg).rglob(EPISODES_FILE)) or [Path(arg)]
@@ -83,3 +86,10 @@ def report_main(argv: list[str] | None = None) -> None:
             print(f"## {run_dir}\n")
             print(markdown_table(summarise(read_episodes(run_dir / EPISODES_FILE), meta["splits"], meta["tasks"])))
             print()
+        if len(run_dirs) > 1:  # a sweep: one table over the runs, and a plot
+            from xicm.core.sweep import sweep_markdown, write_sweep
+
+            sweep = write_sweep(Path(arg), run_dirs)
+            print(f"## sweep over {', '.join(sweep['axes']) or 'nothing (the runs share one config)'}\n")
+            print(sweep_markdown(sweep))
+            print(f"written: {Path(arg) / 'sweep.md'}, sweep.csv, sweep.json, sweep.png\n")

@@ -21,6 +21,7 @@ BUILTIN_PLUGINS = (
     "xicm.plugins.simulators.sapien",
     "xicm.plugins.detectors.oracle",
     "xicm.plugins.detectors.noisy_oracle",
+    "xicm.plugins.detectors.grounding_dino",
     "xicm.plugins.retrievers.random",
     "xicm.plugins.retrievers.similarity",
     "xicm.plugins.encoders.minilm",

@@ -1,0 +1,148 @@
+"""One report over many runs (a Hydra multirun, or any folders of xicm-eval outputs).
+
+The config keys whose values differ between the runs are the sweep's axes (e.g.
+`detector.noise_cm`, `prompt.k`, `retriever.name`). For every run: those values and its
+Level-1 / Level-2 / Seen / All success, mean (std over seeds). Written as sweep.md,
+sweep.csv and sweep.json, and sweep.png: success against the first axis, one line per group
+(or, with several axes, one line per combination of the others), error bars = std over seeds.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+from xicm.core.evaluate import EPISODES_FILE, read_episodes
+from xicm.core.report import summarise
+
+# Config keys that never define a sweep axis (they change with the folder, not the experiment).
+IGNORED_PREFIXES = ("paths.", "run_name", "hydra", "tracking.", "progress", "llm_cache.", "collect.")
+
+
+def find_runs(root: Path) -> list[Path]:
+    return sorted(p.parent for p in Path(root).rglob(EPISODES_FILE) if (p.parent / "run.json").exists())
+
+
+def flatten(data: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(data, dict):
+        out: dict[str, Any] = {}
+        for key, value in data.items():
+            out.update(flatten(value, f"{prefix}{key}."))
+        return out
+    return {prefix[:-1]: json.dumps(data) if isinstance(data, list) else data}
+
+
+def collect_sweep(runs: list[Path]) -> dict[str, Any]:
+    """{'axes': [...], 'rows': [{axis values..., 'groups': {name: (mean, std, seeds)}, 'episodes': n, 'run': path}]}"""
+    metas = [json.loads((r / "run.json").read_text()) for r in runs]
+    flats = [flatten(m.get("config", {})) for m in metas]
+    keys = sorted({k for f in flats for k in f})
+    axes = [
+        k for k in keys
+        if not k.startswith(IGNORED_PREFIXES) and len({json.dumps(f.get(k), default=str) for f in flats}) > 1
+    ]
+    rows = []
+    for run, meta, flat in zip(runs, metas, flats):
+        summary = summarise(read_episodes(run / EPISODES_FILE), meta["splits"], meta["tasks"])
+        rows.append(
+            {
+                **{a: flat.get(a) for a in axes},
+                "groups": {g["group"]: (g["success"], g["std"], g["seeds"]) for g in summary["groups"]},
+                "episodes": summary["episodes"],
+                "run": str(run),
+            }
+        )
+    rows.sort(key=lambda r: [_sortable(r[a]) for a in axes])
+    return {"axes": axes, "rows": rows}
+
+
+def _sortable(value):
+    return (0, float(value), "") if isinstance(value, (int, float)) and not isinstance(value, bool) else (1, 0.0, str(value))
+
+
+def group_names(sweep: dict[str, Any]) -> list[str]:
+    seen = []
+    for row in sweep["rows"]:
+        seen += [g for g in row["groups"] if g not in seen]
+    return seen
+
+
+def sweep_markdown(sweep: dict[str, Any]) -> str:
+    groups = group_names(sweep)
+    head = [*sweep["axes"], *(f"{g} %" for g in groups), "episodes"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for row in sweep["rows"]:
+        cells = [str(row[a]) for a in sweep["axes"]]
+        for g in groups:
+            mean, std, seeds = row["groups"].get(g, (None, None, 0))
+            cells.append("-" if mean is None else f"{mean:.1f}" + (f" ({std:.1f})" if seeds > 1 else ""))
+        cells.append(str(row["episodes"]))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n\nSuccess %: mean (std over seeds) over the group's tasks.\n"
+
+
+def sweep_csv(sweep: dict[str, Any]) -> str:
+    groups = group_names(sweep)
+    buf = io.StringIO()
+    out = csv.writer(buf)
+    out.writerow([*sweep["axes"], *(f"{g}_{s}" for g in groups for s in ("mean", "std")), "episodes", "run"])
+    for row in sweep["rows"]:
+        values = []
+        for g in groups:
+            mean, std, _ = row["groups"].get(g, (None, None, 0))
+            values += ["" if mean is None else f"{mean:.2f}", "" if std is None else f"{std:.2f}"]
+        out.writerow([*(row[a] for a in sweep["axes"]), *values, row["episodes"], row["run"]])
+    return buf.getvalue()
+
+
+def sweep_plot(sweep: dict[str, Any], path: Path) -> Path | None:
+    """success vs the first axis; None when there is no axis to plot against."""
+    if not sweep["axes"]:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    x_key, others = sweep["axes"][0], sweep["axes"][1:]
+    groups = group_names(sweep)
+    lines: dict[str, list[tuple[Any, float, float]]] = {}
+    for row in sweep["rows"]:
+        for g in groups if not others else ["All"]:
+            if g not in row["groups"]:
+                continue
+            label = g if not others else ", ".join(f"{k}={row[k]}" for k in others)
+            mean, std, _ = row["groups"][g]
+            lines.setdefault(label, []).append((row[x_key], mean, std))
+    xs = sorted({row[x_key] for row in sweep["rows"]}, key=_sortable)
+    numeric = all(_sortable(x)[0] == 0 for x in xs)
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=120)
+    for label, points in lines.items():
+        points.sort(key=lambda p: _sortable(p[0]))
+        pos = [p[0] if numeric else xs.index(p[0]) for p in points]
+        ax.errorbar(pos, [p[1] for p in points], yerr=[p[2] for p in points], marker="o", capsize=3, label=label)
+    if not numeric:
+        ax.set_xticks(range(len(xs)), [str(x) for x in xs])
+    ax.set_xlabel(x_key)
+    ax.set_ylabel("success %" + ("" if not others else " (All)"))
+    ax.set_ylim(-2, 102)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def write_sweep(root: Path, runs: list[Path]) -> dict[str, Any]:
+    from xicm.core.evaluate import write_json_atomic, write_text_atomic
+
+    sweep = collect_sweep(runs)
+    write_text_atomic(root / "sweep.md", sweep_markdown(sweep))
+    write_text_atomic(root / "sweep.csv", sweep_csv(sweep))
+    write_json_atomic(root / "sweep.json", sweep)
+    sweep_plot(sweep, root / "sweep.png")
+    return sweep
