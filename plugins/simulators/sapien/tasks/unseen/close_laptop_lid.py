@@ -1,0 +1,110 @@
+"""close_laptop_lid (unseen, level 1).
+
+Task description:
+    An open laptop lies on the table facing the robot, its lid (screen) tilted back past the
+    vertical and resting on its stiff hinge. The robot pushes the lid over from behind with its
+    closed gripper until the lid falls shut onto the keyboard.
+
+Randomisations:
+    - laptop centre x in [0.05, 0.17] m, y in [-0.20, 0.20] m, yaw in [-30, 30] degrees;
+    - the lid's opening angle in [1.95, 2.20] rad (112 to 126 degrees; the hinge stops it there).
+
+Success conditions:
+    The lid has rotated (closed) by more than 1.79 rad from its opening angle at the start.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sapien
+
+from ...objects import add_box, look, yaw_pose
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, frame_quat, wrist_friendly
+
+BASE_HALF = (0.105, 0.15, 0.009)  # half depth (x), width (y) and thickness of the base
+LID_L, LID_T = 0.205, 0.008  # lid length (hinge to top edge) and thickness
+HINGE_X = BASE_HALF[0] - 0.005  # hinge line: at the back of the base, on its top
+SUCCESS_ANGLE = 1.79
+PUSH_R = LID_L - 0.02  # the demonstrator pushes near the top edge, so the hand stays above the lid
+Y_AXIS = [np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)]  # joint x axis -> +y: q > 0 lifts the lid
+
+
+class CloseLaptopLid(Task):
+    name = "close_laptop_lid"
+    split = "level1"
+    instruction = "close laptop lid"
+    object_names = ("laptop", "laptop lid")
+
+    def load(self) -> None:
+        """Nothing to build before the lid's resting angle (its hinge stop) is known; see initialise()."""
+        self.laptop = None
+
+    def _build(self, stop: float, pose: sapien.Pose):
+        shell = look((0.62, 0.63, 0.66), roughness=0.3, metallic=0.6)
+        keys = (0.10, 0.10, 0.11)
+        ab = self.world.scene.create_articulation_builder()
+        base = ab.create_link_builder()
+        base.set_name("base")
+        hx, hy, hz = BASE_HALF
+        add_box(base, [hx, hy, hz], sapien.Pose([0, 0, hz]), shell, density=1500.0)
+        keyboard = sapien.Pose([0.025, 0, 2 * hz + 0.0005])
+        add_box(base, [0.05, hy - 0.02, 0.0005], keyboard, keys, collide=False)
+        add_box(base, [0.025, 0.04, 0.0005], sapien.Pose([-0.065, 0, 2 * hz + 0.0005]), keys, collide=False)  # touchpad
+
+        lid = ab.create_link_builder(base)
+        lid.set_name("lid")
+        lid.set_joint_name("lid_hinge")
+        hinge = sapien.Pose([HINGE_X, 0, 2 * hz], Y_AXIS)
+        lid.set_joint_properties("revolute", [[0.0, stop]], hinge, sapien.Pose(q=Y_AXIS), friction=0.0, damping=0.05)
+        # lid frame = base axes at the hinge; closed, the lid lies along -x on the keyboard
+        add_box(lid, [LID_L / 2, hy, LID_T / 2], sapien.Pose([-LID_L / 2, 0, LID_T / 2]), shell, density=1200.0)
+        screen = sapien.Pose([-LID_L / 2, 0, -0.0005])
+        add_box(lid, [LID_L / 2 - 0.012, hy - 0.012, 0.0005], screen, look((0.05, 0.12, 0.30), roughness=0.1),
+                collide=False)
+        return self.objects.articulation(ab, {"base": "laptop", "lid": "laptop lid"}, "laptop", pose)
+
+    def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
+        x = rng.uniform(0.05, 0.17)
+        y = rng.uniform(-0.20, 0.20)
+        yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
+        self.start_angle = float(rng.uniform(1.95, 2.20))
+        # the lid leans back against its hinge stop: it stays open until pushed past the vertical
+        self.laptop = self._build(self.start_angle, yaw_pose(x, y, TABLE_TOP_Z, yaw))
+        self.laptop.set_qpos(np.array([self.start_angle]))
+        self.laptop.set_qvel(np.zeros(1))
+        self.laptop.set_sleep_threshold(0.0)  # never freeze part-way: gravity always acts on it
+        self.variation = 0
+        self.episode_instruction = self.instruction
+
+    def angle(self) -> float:
+        """Opening angle of the lid (0 = shut)."""
+        return float(self.laptop.get_qpos()[0])
+
+    def evaluate(self) -> bool:
+        return self.start_angle - self.angle() > SUCCESS_ANGLE
+
+    def _push_point(self, theta: float, r: float, offset: float) -> np.ndarray:
+        """World point `offset` off the lid's back face, `r` from the hinge, when the lid is open by `theta`."""
+        along = np.array([-np.cos(theta), 0.0, np.sin(theta)])  # hinge -> top edge
+        normal = np.array([np.sin(theta), 0.0, np.cos(theta)])  # back (outer) face normal
+        local = np.array([HINGE_X, 0.0, 2 * BASE_HALF[2]]) + r * along + normal * (LID_T + offset)
+        return self.world_point(self.laptop.get_root_pose(), local)
+
+    def demonstration(self):
+        theta0 = self.angle()
+        rot = self.laptop.get_root_pose().to_transformation_matrix()[:3, :3]
+        towards_robot = -rot[:, 0]
+        down = np.array([0.0, 0.0, -1.0])
+        quat = wrist_friendly(frame_quat(towards_robot, np.cross(down, towards_robot), down))
+        finger_half = 0.009  # half thickness of the closed fingers along the hand's x axis
+        start = self._push_point(theta0, PUSH_R, 0.05)
+        yield self.key(start + [0.0, 0.0, 0.08], quat, gripper_open=False)  # behind and above the top edge
+        yield self.key(start, quat, gripper_open=False)
+        # push the lid over the vertical; past it, the lid falls shut by itself
+        for theta in (theta0 - 0.45, 1.15):
+            yield self.key(self._push_point(theta, PUSH_R, finger_half + 0.004), quat, gripper_open=False)
+        # press it down onto the keyboard, the fingertips above the lid's middle
+        shut = self._push_point(0.0, 0.11, 0.012)
+        yield self.key(shut + [0.0, 0.0, 0.05], quat, gripper_open=False)
+        yield self.key(shut, quat, gripper_open=False)

@@ -1,0 +1,265 @@
+"""straighten_rope (unseen, level 2).
+
+Task description:
+    A rope lies on the table in a loose curve: nine grey links with a red block at its head and
+    a blue block at its tail. Two flat target zones are marked on the table, a red one for the
+    head and a blue one for the tail, 28 cm apart (the rope is 32 cm long between the centres
+    of its end blocks). The robot takes the head to its zone, then takes the tail and pulls it
+    out to its zone, which straightens the rope.
+
+    The rope is one free articulation: head block (root), links and tail block, each joint a
+    yaw and a pitch hinge (wide limits, no collisions among the rope's own parts, a little
+    damping). The end blocks are heavy (~0.18 kg) and grippy, the links light and slippery, so
+    an end put down stays put while the other end is moved and the rope slides after it.
+
+    Demonstrator: grasp the head across its width, lift it 2 cm, carry it to its zone while
+    turning it to face the tail zone, put it down and let go. Then grasp the tail, lift it 2 cm
+    and pull it radially out to the target distance from the head, swing it round the head at
+    that radius in steps of at most 30 degrees (keeping it pointing away from the head) to the
+    tail zone, put it down and let go. The rope is never pulled taut (target distance < rope
+    length), so the placed head is not dragged.
+
+Randomisations:
+    - the rope's shape: a C-curve (total bend 60-120 degrees) or an S-curve (each half bent
+      40-70 degrees the opposite way), with +-4 degrees of noise per joint, lying flat;
+    - the rope's chord (head to tail) midpoint x in [0.18, 0.30] m, y in [-0.10, 0.10] m, its
+      direction any yaw;
+    - the zones' axis: the chord direction +-30 degrees, their midpoint within +-4 cm (x and y)
+      of the chord midpoint; resampled until both ends start outside their zones (by >= 1 cm)
+      and every zone centre lies in x [0.0, 0.5] m, |y| <= 0.3 m.
+
+Success conditions:
+    The head block's centre is within 3 cm (horizontally) of the head zone's centre AND the tail
+    block's centre within 3 cm of the tail zone's centre, both resting on the table (centre less
+    than 5 cm above it). Being in the zones 28 cm apart forces the 32 cm rope to be nearly straight.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sapien
+
+from ...objects import add_box, add_cylinder, look, physical, yaw_pose
+from ...scene import TABLE_TOP_Z
+from ...task_base import Task, down_quat, quantised, snap_to_grid, yaw_of
+
+N_LINKS = 9
+SPACING = 0.03  # joint to joint along a link
+LINK_R = 0.007
+END_HALF = (0.025, 0.015, 0.02)  # end blocks: along the rope, across (the grasp width), height
+ANCHOR_DZ = LINK_R - END_HALF[2]  # the rope leaves the end blocks at link height
+ROPE_LEN = 2 * END_HALF[0] + N_LINKS * SPACING  # head centre to tail centre, straight
+ZONE_D = 0.28  # distance between the zone centres
+ZONE_R = 0.03
+LIFT = 0.02
+SWING = np.deg2rad(30.0)
+STEP = np.deg2rad(5.0)
+ROPE_GROUP = 1 << 20  # shared collision-group bit: the rope's parts do not collide with each other
+YAW_AXIS = [np.cos(np.pi / 4), 0.0, -np.sin(np.pi / 4), 0.0]  # joint x axis -> local z
+PITCH_AXIS = [np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)]  # joint x axis -> local y
+BEND_LIMIT = np.deg2rad(75.0)
+PITCH_LIMIT = np.deg2rad(60.0)
+JOINT_DAMPING = 2e-4
+
+
+def wrap(a: float) -> float:
+    return float((a + np.pi) % (2 * np.pi) - np.pi)
+
+
+def on_grid(a: float) -> float:
+    return float(np.round(a / STEP) * STEP)
+
+
+def hand_yaws(block_yaw: float, turns: list[float]) -> list[float]:
+    """Hand yaws that hold a block (hand x along it) while it turns by each of `turns` in order.
+
+    The gripper is symmetric, so the block can be taken at its yaw or that +180 degrees: take the
+    one that keeps the hand nearest to yaw 0 all the way (the Panda wrist's comfortable middle).
+    """
+    best = None
+    for start in (wrap(block_yaw), wrap(block_yaw + np.pi)):
+        yaws = [on_grid(start + t) for t in turns]
+        worst = max(abs(y) for y in yaws)
+        if best is None or worst < best[0]:
+            best = (worst, yaws)
+    return best[1]
+
+
+class StraightenRope(Task):
+    name = "straighten_rope"
+    split = "level2"
+    instruction = "straighten rope"
+    object_names = ("rope", "rope head", "rope tail", "head target", "tail target")
+
+    def load(self) -> None:
+        scene = self.world.scene
+        ab = scene.create_articulation_builder()
+        grey = look((0.55, 0.55, 0.5), roughness=0.9)
+        tiny = dict(mass=1e-3, cmass_local_pose=sapien.Pose(), inertia=[1e-7] * 3)
+
+        def end_block(parent, colour, name):
+            lb = ab.create_link_builder(parent)
+            lb.set_name(name)
+            lb.collision_groups = [1, 1, ROPE_GROUP, 0]
+            add_box(lb, END_HALF, color=colour, material=physical(1.5), density=3000.0)
+            return lb
+
+        head = end_block(None, "red", "head")
+        parts, anchor = [head], sapien.Pose([END_HALF[0], 0, ANCHOR_DZ])
+        for k in range(N_LINKS + 1):
+            # a yaw hinge, then a pitch hinge, through a massless joint link
+            hinge = ab.create_link_builder(parts[-1])
+            hinge.set_name(f"hinge{k}")
+            hinge.set_joint_name(f"bend{k}")
+            hinge.set_mass_and_inertia(**tiny)
+            hinge.set_joint_properties(
+                "revolute", [[-BEND_LIMIT, BEND_LIMIT]], sapien.Pose(anchor.p, YAW_AXIS), sapien.Pose(q=YAW_AXIS)
+            )
+            if k < N_LINKS:
+                lb = ab.create_link_builder(hinge)
+                lb.set_name(f"link{k}")
+                lb.collision_groups = [1, 1, ROPE_GROUP, 0]
+                lb.add_capsule_collision(radius=LINK_R, half_length=SPACING / 2, material=physical(0.2), density=300.0)
+                lb.add_capsule_visual(radius=LINK_R, half_length=SPACING / 2, material=grey)
+                child = sapien.Pose([-SPACING / 2, 0, 0], PITCH_AXIS)
+            else:
+                lb = end_block(hinge, "blue", "tail")
+                child = sapien.Pose([-END_HALF[0], 0, ANCHOR_DZ], PITCH_AXIS)
+            lb.set_joint_name(f"pitch{k}")
+            lb.set_joint_properties("revolute", [[-PITCH_LIMIT, PITCH_LIMIT]], sapien.Pose(q=PITCH_AXIS), child)
+            parts.append(lb)
+            anchor = sapien.Pose([SPACING / 2, 0, 0])
+        names = {"head": "rope head", "tail": "rope tail"}
+        self.rope = self.objects.articulation(ab, names, "rope", fix_root=False)
+        links = {link.name: link for link in self.rope.get_links()}
+        self.head, self.tail = links["head"], links["tail"]
+        for joint in self.rope.get_active_joints():
+            joint.set_drive_property(0.0, JOINT_DAMPING)  # pure damping: calms the rope, no spring
+
+        self.zones = []
+        for colour, name in (((0.95, 0.55, 0.55), "head target"), ((0.55, 0.65, 0.95), "tail target")):
+            b = scene.create_actor_builder()
+            b.add_box_collision(sapien.Pose([0, 0, -0.006]), half_size=[ZONE_R, ZONE_R, 0.005])  # under the top
+            add_cylinder(b, ZONE_R, 0.0005, sapien.Pose([0, 0, 0.0005]), colour, collide=False)
+            self.zones.append(self.objects.actor(b, name, kind="static"))
+
+    # --- episode ---------------------------------------------------------------------------
+    @staticmethod
+    def _shape(rng: np.random.Generator) -> np.ndarray:
+        """Yaw angles of the N_LINKS + 1 joints: a gentle C or S curve."""
+        n = N_LINKS + 1
+        if rng.random() < 0.5:
+            bends = np.full(n, np.deg2rad(rng.uniform(60.0, 120.0)) / n)
+        else:
+            half = n // 2
+            first, second = np.deg2rad(rng.uniform(40.0, 70.0, 2))
+            bends = np.concatenate([np.full(half, first / half), np.full(n - half, -second / (n - half))])
+        bends *= rng.choice([-1.0, 1.0])
+        return bends + np.deg2rad(rng.uniform(-4.0, 4.0, n))
+
+    @staticmethod
+    def _tail_in_head_frame(bends: np.ndarray) -> np.ndarray:
+        """Tail centre (x, y) with the head at the origin facing +x."""
+        p, a = np.array([END_HALF[0], 0.0]), 0.0
+        for k, b in enumerate(bends):
+            a += b
+            p = p + (SPACING if k < N_LINKS else END_HALF[0]) * np.array([np.cos(a), np.sin(a)])
+        return p
+
+    def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
+        self.variation = 0
+        self.episode_instruction = self.instruction
+        bends = self._shape(rng)
+        tail = self._tail_in_head_frame(bends)
+        chord_yaw = float(np.arctan2(tail[1], tail[0]))
+        for _ in range(200):
+            mid = np.array([rng.uniform(0.17, 0.27), rng.uniform(-0.10, 0.10)])
+            yaw = rng.uniform(-np.pi, np.pi)
+            turn = yaw - chord_yaw
+            rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+            head_xy = mid - rot @ (tail / 2)
+            tail_xy = mid + rot @ (tail / 2)
+            axis = yaw + np.deg2rad(rng.uniform(-30.0, 30.0))
+            centre = mid + rng.uniform(-0.04, 0.04, 2)
+            half = ZONE_D / 2 * np.array([np.cos(axis), np.sin(axis)])
+            targets = (centre - half, centre + half)
+            inside = all(0.02 <= t[0] <= 0.42 and abs(t[1]) <= 0.3 for t in (*targets, head_xy, tail_xy))
+            apart = np.linalg.norm(head_xy - targets[0]) > ZONE_R + 0.01 and np.linalg.norm(tail_xy - targets[1]) > ZONE_R + 0.01
+            if inside and apart:
+                break
+        self.axis = float(axis)
+        for zone, t in zip(self.zones, targets):
+            zone.set_pose(yaw_pose(t[0], t[1], TABLE_TOP_Z, 0.0))
+        self.rope.set_root_pose(yaw_pose(head_xy[0], head_xy[1], TABLE_TOP_Z + END_HALF[2] + 0.0005, turn))
+        qpos = np.zeros(self.rope.dof)
+        names = [j.name for j in self.rope.get_active_joints()]
+        for k, b in enumerate(bends):
+            qpos[names.index(f"bend{k}")] = b
+        self.rope.set_qpos(qpos)
+        self.rope.set_qvel(np.zeros(self.rope.dof))
+        self.rope.set_root_linear_velocity([0, 0, 0])
+        self.rope.set_root_angular_velocity([0, 0, 0])
+
+    # --- success ---------------------------------------------------------------------------
+    def end_in_zone(self, end, zone) -> bool:
+        p, z = np.asarray(end.entity.pose.p), np.asarray(zone.pose.p)
+        return bool(np.linalg.norm(p[:2] - z[:2]) < ZONE_R and p[2] < TABLE_TOP_Z + 0.03)
+
+    def evaluate(self) -> bool:
+        return self.end_in_zone(self.head, self.zones[0]) and self.end_in_zone(self.tail, self.zones[1])
+
+    # --- demonstrator ----------------------------------------------------------------------
+    def _grasp_point(self, end, outward: float) -> np.ndarray:
+        """Over the end block, 5 mm towards its free end (fingers well clear of the links)."""
+        return self.world_point(end.entity.pose, [outward * 0.005, 0, END_HALF[2] - 0.012])
+
+    def _tcp_for(self, held: sapien.Pose, centre, yaw: float) -> np.ndarray:
+        """TCP position that puts the held block's centre at `centre` with the hand at `yaw`."""
+        return np.asarray(centre) - sapien.Pose(q=down_quat(yaw)).to_transformation_matrix()[:3, :3] @ np.asarray(held.p)
+
+    def demonstration(self):
+        head_t, tail_t = (np.asarray(z.pose.p) for z in self.zones)
+        rest_z = TABLE_TOP_Z + END_HALF[2]
+
+        # 1) the head to its zone, turned to face the tail zone
+        head = self.head.entity.pose
+        turn = wrap(self.axis - yaw_of(head))
+        turns = [0.0, turn / 2, turn] if abs(turn) > np.pi / 2 else [0.0, turn]
+        yaws = hand_yaws(yaw_of(head), turns)
+        grasp = snap_to_grid(self._grasp_point(self.head, -1.0))
+        yield quantised(self.key(grasp + [0, 0, 0.08], down_quat(yaws[0]), True))
+        yield quantised(self.key(grasp, down_quat(yaws[0]), False))
+        held = self.world.robot.tcp_pose().inv() * self.head.entity.pose
+        yield quantised(self.key(grasp + [0, 0, LIFT], down_quat(yaws[0]), False))
+        start = np.asarray(self.head.entity.pose.p)
+        goal = np.array([head_t[0], head_t[1], rest_z])
+        for i, y in enumerate(yaws[1:], 1):
+            centre = start + (goal - start) * i / (len(yaws) - 1)
+            centre[2] = rest_z + LIFT
+            yield quantised(self.key(snap_to_grid(self._tcp_for(held, centre, y)), down_quat(y), False))
+        place = snap_to_grid(self._tcp_for(held, goal, yaws[-1]))
+        yield quantised(self.key(place, down_quat(yaws[-1]), True))
+        yield quantised(self.key(place + [0, 0, 0.06], down_quat(yaws[-1]), True))
+
+        # 2) the tail: out to the zone distance, then round the head at that radius
+        hub = np.asarray(self.head.entity.pose.p)
+        tail = self.tail.entity.pose
+        here = np.asarray(tail.p)[:2] - hub[:2]
+        a0 = float(np.arctan2(here[1], here[0]))
+        offset = tail_t[:2] - hub[:2]
+        radius, sweep = float(np.linalg.norm(offset)), wrap(float(np.arctan2(offset[1], offset[0])) - a0)
+        n = max(1, int(np.ceil(abs(sweep) / SWING)))
+        bearings = [a0 + sweep * j / n for j in range(n + 1)]
+        turn0 = wrap(a0 - yaw_of(tail))  # turn the tail to point away from the head
+        yaws = hand_yaws(yaw_of(tail), [0.0] + [turn0 + b - a0 for b in bearings])
+        grasp = snap_to_grid(self._grasp_point(self.tail, 1.0))
+        yield quantised(self.key(grasp + [0, 0, 0.08], down_quat(yaws[0]), True))
+        yield quantised(self.key(grasp, down_quat(yaws[0]), False))
+        held = self.world.robot.tcp_pose().inv() * self.tail.entity.pose
+        for b, y in zip(bearings, yaws[1:]):
+            centre = [hub[0] + radius * np.cos(b), hub[1] + radius * np.sin(b), rest_z + LIFT]
+            yield quantised(self.key(snap_to_grid(self._tcp_for(held, centre, y)), down_quat(y), False))
+        goal = np.array([tail_t[0], tail_t[1], rest_z])
+        place = snap_to_grid(self._tcp_for(held, goal, yaws[-1]))
+        yield quantised(self.key(place, down_quat(yaws[-1]), True))
+        yield quantised(self.key(place + [0, 0, 0.06], down_quat(yaws[-1]), True))

@@ -1,0 +1,173 @@
+"""Task-specific checks of the unseen SAPIEN tasks close_fridge, close_laptop_lid,
+toilet_seat_down, lamp_off, lamp_on and open_grill: a plausible but wrong action is not a success.
+
+Each test drives the robot with the task's own pose helpers (computed from the true state) to
+a half-done outcome and checks that the success test says no.
+"""
+
+import sys
+
+import numpy as np
+import pytest
+
+pytest.importorskip("sapien")
+
+
+def go(sim, action) -> None:
+    assert sim.execute(action).ok
+
+
+def test_close_fridge_door_pushed_only_a_little_is_not_a_success(sim):
+    sim.reset_state("close_fridge", 0, 0)
+    task = sim.task
+    theta0 = task.angle()
+    p, q, turn = task._push_pose(theta0, 0.06)
+    go(sim, task.key(p + [0, 0, 0.06], q, False))
+    go(sim, task.key(p, q, False))
+    p, q, _ = task._push_pose(theta0 - np.deg2rad(20), 0.015, turn)
+    go(sim, task.key(p, q, False))
+    closed = theta0 - task.angle()
+    assert np.deg2rad(10) < closed < np.deg2rad(28)
+    assert not sim.is_success()
+    # pushing on to more than 30 degrees completes it
+    p, q, _ = task._push_pose(theta0 - np.deg2rad(45), 0.015, turn)
+    assert sim.execute(task.key(p, q, False)).success
+
+
+def test_close_fridge_bottom_door_does_not_open(sim):
+    sim.reset_state("close_fridge", 1, 0)
+    assert sim.task.fridge.dof == 1  # only the top door is hinged
+
+
+def _push_over(sim, task, stop_after: float, retreat: bool):
+    """Push the laptop lid / toilet seat towards the robot by `stop_after` radians, as the demo
+    starts to (its first two poses: above and behind the top edge)."""
+    theta0 = task.angle()
+    actions = list(task.demonstration())  # all computed now, from the start state
+    go(sim, actions[0])
+    go(sim, actions[1])
+    push_r = sys.modules[type(task).__module__].PUSH_R
+    go(sim, task.key(task._push_point(theta0 - stop_after, push_r, 0.013), actions[1].quat_wxyz, False))
+    if retreat:
+        go(sim, actions[0])
+        for _ in range(20):  # let it settle
+            sim.controller.step_frame()
+    return theta0
+
+
+def test_laptop_lid_pushed_a_little_stays_open(sim):
+    sim.reset_state("close_laptop_lid", 2, 0)
+    task = sim.task
+    theta0 = _push_over(sim, task, 0.25, retreat=True)
+    assert np.pi / 2 < task.angle() < theta0  # still leaning back (or falling back to its stop)
+    assert not sim.is_success()
+
+
+def test_laptop_lid_half_closed_is_not_a_success(sim):
+    sim.reset_state("close_laptop_lid", 3, 0)
+    task = sim.task
+    theta0 = task.angle()
+    _push_over(sim, task, 0.3, retreat=False)  # held just behind the vertical
+    assert 0.2 < theta0 - task.angle() < 1.0
+    assert not sim.is_success()
+    for action in list(task.demonstration())[2:]:  # push it over: it falls shut
+        go(sim, action)
+    assert sim.is_success() and task.angle() < 0.1
+
+
+def test_toilet_seat_pushed_a_little_falls_back_up(sim):
+    sim.reset_state("toilet_seat_down", 4, 0)
+    task = sim.task
+    theta0 = _push_over(sim, task, 0.2, retreat=True)
+    assert abs(task.angle() - theta0) < 0.05  # fell back against its hinge stop
+    assert not sim.is_success()
+
+
+def test_toilet_seat_success_needs_it_lowered_by_1_7_rad(sim):
+    sim.reset_state("toilet_seat_down", 5, 0)
+    task = sim.task
+    task.toilet.set_qpos(np.array([task.start_angle - 1.6]))  # most of the way down, not quite
+    assert not sim.is_success()
+    task.toilet.set_qpos(np.array([0.0]))
+    assert sim.is_success()
+
+
+def _press(sim, task, depth: float) -> float:
+    """Press the lamp button with the closed fingertips `depth` metres in, then come back up;
+    returns how far the button went in."""
+    from xicm.plugins.simulators.sapien.tasks.unseen import lamp_off
+
+    root = task.lamp.get_root_pose()
+    demo = list(task.demonstration())
+    top = task.world_point(root, [lamp_off.BUTTON_X, 0, lamp_off.BASE_H + lamp_off.CAP_OUT])
+    press = top + [0.0, 0.0, lamp_off.FINGERTIP - depth]
+    go(sim, task.key(press + [0, 0, 0.08], demo[0].quat_wxyz, False))
+    go(sim, task.key(press, demo[0].quat_wxyz, False))
+    pressed = task.depth()
+    go(sim, task.key(press + [0, 0, 0.08], demo[0].quat_wxyz, False))
+    return pressed
+
+
+@pytest.mark.parametrize("name", ["lamp_off", "lamp_on"])
+def test_lamp_button_touched_but_not_pressed_enough_is_not_a_success(sim, name):
+    sim.reset_state(name, 6, 0)
+    task = sim.task
+    lit = task.lit
+    pressed = _press(sim, task, 0.0015)
+    assert 0.0 < pressed < 0.003
+    assert task.lit == lit and not sim.is_success()
+    _press(sim, task, 0.006)  # a real press toggles the light
+    assert task.lit != lit and sim.is_success()
+
+
+@pytest.mark.parametrize("name", ["lamp_off", "lamp_on"])
+def test_lamp_pressed_twice_is_back_where_it_started(sim, name):
+    sim.reset_state(name, 7, 0)
+    task = sim.task
+    lit = task.lit
+    assert lit == (name == "lamp_off")
+    _press(sim, task, 0.006)
+    assert task.lit != lit and sim.is_success()
+    _press(sim, task, 0.006)
+    assert task.presses == 2 and task.lit == lit
+    assert not sim.is_success()
+
+
+def test_lamp_light_shows_on_the_bulb(sim):
+    sim.reset_state("lamp_on", 8, 0)
+    task = sim.task
+    assert np.allclose(task.bulb_look.emission, 0.0)
+    for action in task.demonstration():
+        go(sim, action)
+    assert sim.is_success() and task.lit
+    assert np.max(task.bulb_look.emission[:3]) > 0.5
+
+
+def test_grill_lid_lifted_then_released_is_not_a_success(sim):
+    from xicm.plugins.simulators.sapien.tasks.unseen import open_grill
+
+    sim.reset_state("open_grill", 9, 0)
+    task = sim.task
+    actions = list(task.demonstration())
+    for action in actions[:4]:  # approach and grasp the handle
+        go(sim, action)
+    phi = np.deg2rad(35.0)
+    p, q, approach = task._grasp(phi, open_grill.PITCH - phi)  # the demo's world pitch, part-way up
+    go(sim, task.key(p, q, False))
+    assert np.deg2rad(25) < task.angle() < np.deg2rad(45)
+    assert not sim.is_success()  # held part-way open
+    go(sim, task.key(p, q, True))  # let go and back off: the lid falls shut
+    go(sim, task.key(p - approach * 0.10, q, True))
+    for _ in range(40):
+        sim.controller.step_frame()
+    assert task.angle() < np.deg2rad(5)
+    assert not sim.is_success()
+
+
+def test_grill_opened_and_held_is_a_success(sim):
+    sim.reset_state("open_grill", 10, 0)
+    task = sim.task
+    for action in task.demonstration():
+        go(sim, action)
+    assert task.angle() > np.deg2rad(55) and task.grasped()
+    assert sim.is_success()
