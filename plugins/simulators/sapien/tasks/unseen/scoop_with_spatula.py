@@ -1,7 +1,7 @@
 """scoop_with_spatula (unseen, level 2).
 
 Task description:
-    A kitchen spatula (a thin aluminium blade with low side lips, a cranked neck and a wooden
+    A kitchen spatula (a thin metal blade with low side lips, a cranked neck and a wooden
     handle held up off the table) lies on the table, its blade pointing away from the robot. A
     small wooden cube (a toy block with rounded edges) stands in front of a low wooden backstop
     bar fixed to the table (the stop is part of the scene, not a named object). The robot takes
@@ -57,8 +57,9 @@ STEP = np.deg2rad(5.0)
 
 def add_capsule(builder, radius, half_length, pose, color, material=None, density=500.0):
     """A capsule along the local x axis of `pose` (collision + visual)."""
-    builder.add_capsule_collision(pose=pose, radius=radius, half_length=half_length, material=material,
-                                  density=density)
+    builder.add_capsule_collision(
+        pose=pose, radius=radius, half_length=half_length, material=material, density=density
+    )
     builder.add_capsule_visual(pose=pose, radius=radius, half_length=half_length, material=look(color))
 
 
@@ -92,8 +93,8 @@ class ScoopWithSpatula(Task):
         blade = physical(0.6)
         add_box(b, [bl - EDGE_R, bw, bt], sapien.Pose([-EDGE_R, 0, bt]), steel, material=blade, density=2700.0)
         # the leading edge: a frictionless rod along y, as thick as the blade
-        add_capsule(b, EDGE_R, bw - EDGE_R, sapien.Pose([bl - EDGE_R, 0, EDGE_R], [np.cos(np.pi / 4), 0, 0,
-                    np.sin(np.pi / 4)]), steel, slick, 2700.0)
+        along_y = [np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)]
+        add_capsule(b, EDGE_R, bw - EDGE_R, sapien.Pose([bl - EDGE_R, 0, EDGE_R], along_y), steel, slick, 2700.0)
         lip_len = bl - 0.01  # the lips stop 2 cm short of the tip
         for s in (-1, 1):
             add_box(b, [lip_len, 0.0015, LIP_H / 2], sapien.Pose([-bl + lip_len, s * (bw - 0.0015), LIP_H / 2]),
