@@ -73,9 +73,23 @@ def report_main(argv: list[str] | None = None) -> None:
     if not args or args[0] in ("-h", "--help"):
         print(
             "usage: xicm-report DIR [DIR ...]  (xicm-eval output folders, or folders above several of them:\n"
-            "a folder with several runs, e.g. a multirun, also gets sweep.md/.csv/.json/.png over the swept keys)"
+            "a folder with several runs, e.g. a multirun, also gets sweep.md/.csv/.json/.png over the swept keys)\n"
+            "       xicm-report --merge OUT_DIR RUN_DIR [RUN_DIR ...]  (one report over runs of one config that\n"
+            "cover different tasks or seeds)"
         )
         sys.exit(0 if args else 2)
+    if args[0] == "--merge":
+        if len(args) < 3:
+            _fail(XicmError("usage: xicm-report --merge OUT_DIR RUN_DIR [RUN_DIR ...]"))
+        from xicm.core.merge import merge_runs
+
+        try:
+            summary = merge_runs(Path(args[1]), [Path(a) for a in args[2:]])
+        except XicmError as exc:
+            _fail(exc)
+        print(markdown_table(summary))
+        print(f"\nmerged into {args[1]} (episodes.jsonl, run.json, summary.json, table.md, tasks.csv)")
+        return
     for arg in args:
         run_dirs = sorted(p.parent for p in Path(arg).rglob(EPISODES_FILE)) or [Path(arg)]
         for run_dir in run_dirs:

@@ -2,6 +2,7 @@
 
 import csv
 import json
+import re
 
 import pytest
 
@@ -55,3 +56,29 @@ def test_two_axes_plot_one_line_per_other_value(tmp_path):
         (0, "language"), (0, "random"), (4, "language"), (4, "random")]
     report_main([str(root)])
     assert (root / "sweep.png").stat().st_size > 1000
+
+
+def test_merge_runs_that_cover_different_tasks(tmp_path, capsys):
+    a, b = tmp_path / "part1", tmp_path / "part2"
+    make_run(a, 0, "language", {("a", 0): [True, False]})
+    make_run(b, 0, "language", {("b", 0): [True, True]})
+    meta = json.loads((b / "run.json").read_text())
+    meta["tasks"], meta["config"]["paths"]["data"] = ["b"], "elsewhere"
+    (b / "run.json").write_text(json.dumps(meta))
+    report_main(["--merge", str(tmp_path / "all"), str(a), str(b)])
+    out = capsys.readouterr().out
+    assert "| **All** (2 tasks) | | **75.0** |" in out
+    merged = json.loads((tmp_path / "all" / "run.json").read_text())
+    assert merged["merged_from"] == [str(a), str(b)] and merged["tasks"] == ["a", "b"]
+    assert len((tmp_path / "all" / "episodes.jsonl").read_text().splitlines()) == 4
+
+
+def test_merge_refuses_other_configs_and_duplicate_episodes(tmp_path, capsys):
+    a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+    make_run(a, 0, "language", {("a", 0): [True]})
+    make_run(b, 2, "language", {("b", 0): [True]})
+    make_run(c, 0, "language", {("a", 0): [False]})
+    for other, why in ((b, r"another config than .* \(detector.noise_cm\)"), (c, r"episode \('a', 0, 0\) is in both")):
+        with pytest.raises(SystemExit):
+            report_main(["--merge", str(tmp_path / "out"), str(a), str(other)])
+        assert re.search(why, capsys.readouterr().err)
