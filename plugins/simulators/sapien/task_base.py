@@ -146,3 +146,29 @@ def yaw_of(pose: sapien.Pose) -> float:
     m = pose.to_transformation_matrix()
     return float(np.arctan2(m[1, 0], m[0, 0]))
 
+
+
+def half_turn(angle: float) -> float:
+    """The angle modulo 180 degrees, in [-90, 90) degrees (radians): a symmetric gripper's yaw."""
+    return float((angle + np.pi / 2) % np.pi - np.pi / 2)
+
+
+def door_push_pose(root: sapien.Pose, hinge_xy, theta: float, radius: float, height: float, standoff: float, turn=None):
+    """(TCP position, quaternion, turn) for pushing a door shut with the side of the closed fingers.
+
+    The door hangs on a vertical hinge at `hinge_xy` (object frame, the door extending along -y
+    when closed) and is open by `theta`; the TCP is `radius` from the hinge along the door, at
+    `height` above the object's base, `standoff` off the door's mid-plane on its outer side.
+    `turn` (None: decide by `needs_turn`) is returned so a demo keeps one wrist choice throughout.
+    """
+    along = np.array([-np.sin(theta), -np.cos(theta)])  # hinge -> free edge
+    normal = np.array([-np.cos(theta), np.sin(theta)])  # outer face normal
+    xy = np.asarray(hinge_xy, dtype=float) + radius * along + normal * standoff
+    rot = root.to_transformation_matrix()[:3, :3]
+    push_dir = rot @ np.array([-normal[0], -normal[1], 0.0])  # a flat side of the fingers pushes
+    down = np.array([0.0, 0.0, -1.0])
+    quat = frame_quat(push_dir, np.cross(down, push_dir), down)
+    if turn is None:
+        turn = needs_turn(quat)
+    position = np.asarray((root * sapien.Pose([xy[0], xy[1], height])).p, dtype=float)
+    return position, turn_gripper(quat) if turn else quat, turn

@@ -22,7 +22,7 @@ import sapien
 
 from ...objects import add_box, add_cylinder, look, yaw_pose
 from ...scene import TABLE_TOP_Z
-from ...task_base import Task, frame_quat, needs_turn, turn_gripper
+from ...task_base import Task, door_push_pose
 
 DEPTH, WIDTH, HEIGHT = 0.24, 0.25, 0.44
 SPLIT_Z = 0.25  # height of the gap between the bottom and the top door
@@ -106,18 +106,9 @@ class CloseFridge(Task):
 
     def _push_pose(self, theta: float, offset: float, turn: bool | None = None):
         """TCP pose (world) `offset` off the top door's outer face at PUSH_R when it is open by `theta`."""
+        hinge = (-DEPTH / 2 - DOOR_T / 2, WIDTH / 2 - 0.005)
         root = self.fridge.get_root_pose()
-        hinge = np.array([-DEPTH / 2 - DOOR_T / 2, WIDTH / 2 - 0.005])
-        along = np.array([-np.sin(theta), -np.cos(theta)])  # hinge -> free edge
-        normal = np.array([-np.cos(theta), np.sin(theta)])  # outer face normal
-        xy = hinge + PUSH_R * along + normal * (DOOR_T / 2 + offset)
-        rot = root.to_transformation_matrix()[:3, :3]
-        push_dir = rot @ np.array([-normal[0], -normal[1], 0.0])  # a flat side of the fingers pushes
-        down = np.array([0.0, 0.0, -1.0])
-        quat = frame_quat(push_dir, np.cross(down, push_dir), down)
-        if turn is None:
-            turn = needs_turn(quat)
-        return self.world_point(root, [xy[0], xy[1], PUSH_Z]), turn_gripper(quat) if turn else quat, turn
+        return door_push_pose(root, hinge, theta, PUSH_R, PUSH_Z, DOOR_T / 2 + offset, turn)
 
     def demonstration(self):
         theta0 = self.angle()

@@ -19,7 +19,7 @@ import sapien
 
 from ...objects import add_box, add_cylinder, look, physical, yaw_pose
 from ...scene import TABLE_TOP_Z
-from ...task_base import Task, frame_quat, needs_turn, turn_gripper
+from ...task_base import Task, door_push_pose
 
 DEPTH, WIDTH, HEIGHT = 0.30, 0.42, 0.25
 PANEL = 0.10  # control panel width on the right-hand side of the front
@@ -100,19 +100,9 @@ class CloseMicrowave(Task):
 
     def _push_pose(self, theta: float, offset: float, turn: bool | None = None):
         """TCP pose (world) touching the door's outer face at PUSH_R when the door is at `theta`."""
+        hinge = (-DEPTH / 2 - DOOR_T / 2, WIDTH / 2 - 0.005)
         root = self.microwave.get_root_pose()
-        hinge = np.array([-DEPTH / 2 - DOOR_T / 2, WIDTH / 2 - 0.005])
-        along = np.array([-np.sin(theta), -np.cos(theta)])  # hinge -> free edge
-        normal = np.array([-np.cos(theta), np.sin(theta)])  # outer face normal
-        xy = hinge + PUSH_R * along + normal * (DOOR_T / 2 + offset)
-        local = np.array([xy[0], xy[1], PUSH_Z])
-        rot = root.to_transformation_matrix()[:3, :3]
-        push_dir = rot @ np.array([-normal[0], -normal[1], 0.0])  # a flat side of the fingers pushes
-        down = np.array([0.0, 0.0, -1.0])
-        quat = frame_quat(push_dir, np.cross(down, push_dir), down)
-        if turn is None:
-            turn = needs_turn(quat)
-        return self.world_point(root, local), turn_gripper(quat) if turn else quat, turn
+        return door_push_pose(root, hinge, theta, PUSH_R, PUSH_Z, DOOR_T / 2 + offset, turn)
 
     def demonstration(self):
         theta0 = self.angle()

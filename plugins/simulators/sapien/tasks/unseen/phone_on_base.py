@@ -23,7 +23,7 @@ import sapien
 
 from ...objects import add_box, add_cylinder, look, physical, yaw_pose
 from ...scene import TABLE_TOP_Z
-from ...task_base import Task, down_quat, quantised
+from ...task_base import Task, down_quat, half_turn, quantised
 
 PHONE_HALF = (0.08, 0.027, 0.012)  # handset half length, width, thickness
 CRADLE_HALF = (0.095, 0.042)  # inner half size of the cradle
@@ -34,10 +34,6 @@ SPAWN_PHONE = ((0.04, 0.22), (-0.25, 0.25), 60.0)
 SPAWN_BASE = ((0.30, 0.42), (-0.22, 0.22), 45.0)
 MIN_GAP = 0.20
 
-
-def half_turn(angle: float) -> float:
-    """The angle modulo 180 degrees, in (-90, 90] degrees: the gripper's wrist-friendly yaw."""
-    return float((angle + np.pi / 2) % np.pi - np.pi / 2)
 
 
 class PhoneOnBase(Task):

@@ -25,7 +25,7 @@ import sapien
 
 from ...objects import add_box, look, physical, yaw_pose
 from ...scene import TABLE_TOP_Z
-from ...task_base import Task, down_quat, quantised, yaw_of
+from ...task_base import Task, down_quat, half_turn, quantised, yaw_of
 
 BOOK_HALF = (0.05, 0.0125, 0.07)  # half depth (x), thickness (y) and height (z) of a book
 BOOK_COLOURS = ((0.70, 0.10, 0.10), (0.10, 0.20, 0.65), (0.10, 0.45, 0.20))
@@ -38,10 +38,6 @@ SLOTS = (0.0, 0.06, -0.06)  # where the demonstrator stands books 1, 2, 3 along 
 SPAWN_BOOKS = ((0.0, 0.16), (-0.26, 0.26), 0.12)
 SPAWN_SHELF = ((0.32, 0.38), (-0.08, 0.08), 20.0)
 
-
-def half_turn(angle: float) -> float:
-    """The angle modulo 180 degrees, in (-90, 90] degrees."""
-    return float((angle + np.pi / 2) % np.pi - np.pi / 2)
 
 
 class PutBooksOnBookshelf(Task):

@@ -26,7 +26,7 @@ import sapien
 
 from ...objects import add_box, look, physical, yaw_pose
 from ...scene import TABLE_TOP_Z
-from ...task_base import Task, down_quat, frame_quat, quantised
+from ...task_base import Task, down_quat, frame_quat, half_turn, quantised
 
 # the knife along its local x (butt at -x, tip at +x), blade width along y, thickness along z
 HANDLE_L, HANDLE_W, HANDLE_T = 0.08, 0.022, 0.014
@@ -42,10 +42,6 @@ SPAWN_BLOCK = ((0.05, 0.20), (0.17, 0.28), 45.0)
 SPAWN_BOARD = ((0.30, 0.38), (-0.08, 0.08), 30.0)
 MIN_GAP = 0.25
 
-
-def half_turn(angle: float) -> float:
-    """The angle modulo 180 degrees, in (-90, 90] degrees."""
-    return float((angle + np.pi / 2) % np.pi - np.pi / 2)
 
 
 class PutKnifeOnChoppingBoard(Task):

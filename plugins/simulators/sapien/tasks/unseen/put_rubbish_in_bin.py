@@ -23,7 +23,7 @@ import sapien
 
 from ...objects import add_box, add_cylinder, look, physical, yaw_pose
 from ...scene import ROBOT_BASE, TABLE_TOP_Z
-from ...task_base import Task, down_quat, quantised, yaw_of
+from ...task_base import Task, down_quat, half_turn, quantised, yaw_of
 
 RUBBISH_HALF = (0.030, 0.026, 0.024)  # the crumpled paper's collision box
 TOMATO_R = 0.03
@@ -33,10 +33,6 @@ GRIP_DEPTH = 0.012  # the TCP this far below the rubbish's top when holding it
 SPAWN = ((0.02, 0.22), (-0.26, 0.26), 0.10)
 SPAWN_BIN = ((0.32, 0.42), (-0.18, 0.18), 0.19)
 
-
-def half_turn(angle: float) -> float:
-    """The angle modulo 180 degrees, in (-90, 90] degrees."""
-    return float((angle + np.pi / 2) % np.pi - np.pi / 2)
 
 
 class PutRubbishInBin(Task):
