@@ -12,6 +12,8 @@ import pytest
 
 pytest.importorskip("sapien")
 
+from xicm.plugins.simulators.sapien.task_base import lid_push_point  # noqa: E402
+
 
 def go(sim, action) -> None:
     assert sim.execute(action).ok
@@ -46,8 +48,13 @@ def _push_over(sim, task, stop_after: float, retreat: bool):
     actions = list(task.demonstration())  # all computed now, from the start state
     go(sim, actions[0])
     go(sim, actions[1])
-    push_r = sys.modules[type(task).__module__].PUSH_R
-    go(sim, task.key(task._push_point(theta0 - stop_after, push_r, 0.013), actions[1].quat_wxyz, False))
+    mod = sys.modules[type(task).__module__]
+    if hasattr(task, "laptop"):
+        root, hinge, thickness = task.laptop.get_root_pose(), (mod.HINGE_X, 2 * mod.BASE_HALF[2]), mod.LID_T
+    else:
+        root, hinge, thickness = task.toilet.get_root_pose(), mod.HINGE, mod.SEAT_T
+    point = lid_push_point(root, hinge, theta0 - stop_after, mod.PUSH_R, thickness + 0.013)
+    go(sim, task.key(point, actions[1].quat_wxyz, False))
     if retreat:
         go(sim, actions[0])
         for _ in range(20):  # let it settle

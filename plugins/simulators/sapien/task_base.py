@@ -172,3 +172,35 @@ def door_push_pose(root: sapien.Pose, hinge_xy, theta: float, radius: float, hei
         turn = needs_turn(quat)
     position = np.asarray((root * sapien.Pose([xy[0], xy[1], height])).p, dtype=float)
     return position, turn_gripper(quat) if turn else quat, turn
+
+
+def lid_push_point(root: sapien.Pose, hinge_xz, theta: float, r: float, standoff: float) -> np.ndarray:
+    """World point `standoff` off a lid's outer face, `r` from its hinge, the lid open by `theta`.
+
+    The lid is hinged about the object's y axis at (x, z) = `hinge_xz` and, when shut
+    (theta = 0), lies flat extending along -x (towards the robot when the object faces it).
+    """
+    along = np.array([-np.cos(theta), 0.0, np.sin(theta)])  # hinge -> free edge
+    normal = np.array([np.sin(theta), 0.0, np.cos(theta)])  # outer face normal
+    local = np.array([hinge_xz[0], 0.0, hinge_xz[1]]) + r * along + normal * standoff
+    return np.asarray((root * sapien.Pose(local)).p, dtype=float)
+
+
+def push_lid_shut(root: sapien.Pose, hinge_xz, thickness: float, theta0: float, push_r: float, gap: float, first_step: float):
+    """Key actions closing a raised lid with the closed fingers: behind and above its free edge,
+    push it over the vertical (past it the lid falls shut by itself), then press it down."""
+    rot = root.to_transformation_matrix()[:3, :3]
+    towards_robot = -rot[:, 0]
+    down = np.array([0.0, 0.0, -1.0])
+    quat = wrist_friendly(frame_quat(towards_robot, np.cross(down, towards_robot), down))
+    finger_half = 0.009  # half thickness of the closed fingers along the hand's x axis
+
+    def point(theta, r, offset):
+        return lid_push_point(root, hinge_xz, theta, r, thickness + offset)
+
+    start = point(theta0, push_r, gap)
+    keys = [Task.key(start + [0.0, 0.0, 0.08], quat, False), Task.key(start, quat, False)]
+    keys += [Task.key(point(theta, push_r, finger_half + 0.004), quat, False) for theta in (theta0 - first_step, 1.15)]
+    shut = point(0.0, 0.11, 0.012)
+    keys += [Task.key(shut + [0.0, 0.0, 0.05], quat, False), Task.key(shut, quat, False)]
+    return keys

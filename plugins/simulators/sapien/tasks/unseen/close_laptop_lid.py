@@ -20,7 +20,7 @@ import sapien
 
 from ...objects import add_box, look, yaw_pose
 from ...scene import TABLE_TOP_Z
-from ...task_base import Task, frame_quat, wrist_friendly
+from ...task_base import Task, push_lid_shut
 
 BASE_HALF = (0.105, 0.15, 0.009)  # half depth (x), width (y) and thickness of the base
 LID_L, LID_T = 0.205, 0.008  # lid length (hinge to top edge) and thickness
@@ -84,27 +84,6 @@ class CloseLaptopLid(Task):
     def evaluate(self) -> bool:
         return self.start_angle - self.angle() > SUCCESS_ANGLE
 
-    def _push_point(self, theta: float, r: float, offset: float) -> np.ndarray:
-        """World point `offset` off the lid's back face, `r` from the hinge, when the lid is open by `theta`."""
-        along = np.array([-np.cos(theta), 0.0, np.sin(theta)])  # hinge -> top edge
-        normal = np.array([np.sin(theta), 0.0, np.cos(theta)])  # back (outer) face normal
-        local = np.array([HINGE_X, 0.0, 2 * BASE_HALF[2]]) + r * along + normal * (LID_T + offset)
-        return self.world_point(self.laptop.get_root_pose(), local)
-
     def demonstration(self):
-        theta0 = self.angle()
-        rot = self.laptop.get_root_pose().to_transformation_matrix()[:3, :3]
-        towards_robot = -rot[:, 0]
-        down = np.array([0.0, 0.0, -1.0])
-        quat = wrist_friendly(frame_quat(towards_robot, np.cross(down, towards_robot), down))
-        finger_half = 0.009  # half thickness of the closed fingers along the hand's x axis
-        start = self._push_point(theta0, PUSH_R, 0.05)
-        yield self.key(start + [0.0, 0.0, 0.08], quat, gripper_open=False)  # behind and above the top edge
-        yield self.key(start, quat, gripper_open=False)
-        # push the lid over the vertical; past it, the lid falls shut by itself
-        for theta in (theta0 - 0.45, 1.15):
-            yield self.key(self._push_point(theta, PUSH_R, finger_half + 0.004), quat, gripper_open=False)
-        # press it down onto the keyboard, the fingertips above the lid's middle
-        shut = self._push_point(0.0, 0.11, 0.012)
-        yield self.key(shut + [0.0, 0.0, 0.05], quat, gripper_open=False)
-        yield self.key(shut, quat, gripper_open=False)
+        root = self.laptop.get_root_pose()
+        yield from push_lid_shut(root, (HINGE_X, 2 * BASE_HALF[2]), LID_T, self.angle(), PUSH_R, 0.05, 0.45)

@@ -21,7 +21,7 @@ import sapien
 
 from ...objects import add_box, add_cylinder, look, yaw_pose
 from ...scene import TABLE_TOP_Z
-from ...task_base import Task, frame_quat, wrist_friendly
+from ...task_base import Task, push_lid_shut
 
 RIM_Z = 0.20  # height of the bowl's rim
 HINGE = (0.06, RIM_Z + 0.003)  # hinge line (local x, z) at the back of the rim
@@ -103,27 +103,6 @@ class ToiletSeatDown(Task):
     def evaluate(self) -> bool:
         return self.start_angle - self.angle() > SUCCESS_ANGLE
 
-    def _push_point(self, theta: float, r: float, offset: float) -> np.ndarray:
-        """World point `offset` off the seat's back (upper) face, `r` from the hinge, with the seat at `theta`."""
-        along = np.array([-np.cos(theta), 0.0, np.sin(theta)])  # hinge -> front edge
-        normal = np.array([np.sin(theta), 0.0, np.cos(theta)])  # upper face normal
-        local = np.array([HINGE[0], 0.0, HINGE[1]]) + r * along + normal * (SEAT_T + offset)
-        return self.world_point(self.toilet.get_root_pose(), local)
-
     def demonstration(self):
-        theta0 = self.angle()
-        rot = self.toilet.get_root_pose().to_transformation_matrix()[:3, :3]
-        towards_robot = -rot[:, 0]
-        down = np.array([0.0, 0.0, -1.0])
-        quat = wrist_friendly(frame_quat(towards_robot, np.cross(down, towards_robot), down))
-        finger_half = 0.009  # half thickness of the closed fingers along the hand's x axis
-        start = self._push_point(theta0, PUSH_R, 0.04)
-        yield self.key(start + [0.0, 0.0, 0.08], quat, gripper_open=False)  # above the gap behind the seat
-        yield self.key(start, quat, gripper_open=False)
-        # push the seat over the vertical; past it, the seat falls down by itself
-        for theta in (theta0 - 0.40, 1.15):
-            yield self.key(self._push_point(theta, PUSH_R, finger_half + 0.004), quat, gripper_open=False)
-        # press it down onto the rim
-        down_on_rim = self._push_point(0.0, 0.11, 0.012)
-        yield self.key(down_on_rim + [0.0, 0.0, 0.05], quat, gripper_open=False)
-        yield self.key(down_on_rim, quat, gripper_open=False)
+        root = self.toilet.get_root_pose()
+        yield from push_lid_shut(root, HINGE, SEAT_T, self.angle(), PUSH_R, 0.04, 0.40)
