@@ -113,3 +113,22 @@ def test_water_plants_poured_beside_the_pot_is_not_a_success(sim):
     on_table = [bead for bead in task.beads if bead.pose.p[2] < 0.80]  # poured out, onto the table
     assert on_table and task.beads_in_pot() == 0
     assert not sim.is_success()
+
+
+def test_water_plants_can_dropped_on_the_pot_is_not_a_success(sim):
+    """What copying a pick-and-place demo does: take the can, let go of it above the plant."""
+    from xicm.core.types import KeyAction
+
+    for seed in range(3):
+        sim.reset_state("water_plants", seed, 0)
+        task = sim.task
+        actions = list(task.demonstration())[:3]  # above the handle, grasp, lift
+        for action in actions:
+            assert sim.execute(action).ok
+        pot = task.pot.pose.p
+        above = KeyAction((float(pot[0]), float(pot[1]), float(pot[2]) + 0.25), actions[-1].quat_wxyz, False)
+        assert sim.execute(above).ok
+        sim.execute(KeyAction(above.position, above.quat_wxyz, True))  # let go
+        for _ in range(30):
+            sim.controller.step_frame()
+        assert not task.grasped() and not sim.is_success()

@@ -14,9 +14,11 @@ Randomisations:
     - pot centre x in [0.26, 0.34] m, y in [-0.06, 0.06] m.
 
 Success conditions:
-    At least one bead of water lies inside the pot (inside its wall, below its rim). One bead
-    is enough (the upstream condition is "water reaches the pot"); beads cannot get there
-    without being poured out of the spout.
+    At least one bead of water lies inside the pot (inside its wall, below its rim), while the
+    robot still holds the can and the spout's tip is over the pot (within the pot's radius
+    plus 3 cm, horizontally). One bead is enough (the upstream condition is "water reaches the
+    pot"). Holding and the spout condition make it watering: dropping the can onto or beside the
+    pot (what copying a pick-and-place demo does) spills beads into the pot but is not a success.
 """
 
 from __future__ import annotations
@@ -150,8 +152,14 @@ class WaterPlants(Task):
             count += bool(np.linalg.norm(p[:2]) < POT_R and 0.0 < p[2] < POT_H)
         return count
 
+    def spout_over_pot(self) -> bool:
+        tip = np.asarray((self.can.pose * sapien.Pose(self.nozzle)).p)
+        return bool(np.linalg.norm(tip[:2] - np.asarray(self.pot.pose.p)[:2]) < POT_R + 0.03)
+
     def evaluate(self) -> bool:
-        return self.beads_in_pot() >= MIN_BEADS
+        if self.beads_in_pot() < MIN_BEADS or not self.spout_over_pot():
+            return False
+        return self.can.per_scene_id in self.grasped()
 
     def demonstration(self):
         can = self.can.pose
