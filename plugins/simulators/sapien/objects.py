@@ -85,11 +85,15 @@ class ObjectSet:
         self.segment_names[entity.per_scene_id] = object_name
         return entity
 
-    def articulation(self, builder, link_objects: dict[str, str], name: str, pose: sapien.Pose | None = None):
-        """Build an articulation; `link_objects` maps each link name to the object it belongs to."""
+    def articulation(
+        self, builder, link_objects: dict[str, str], name: str, pose: sapien.Pose | None = None, fix_root: bool = True
+    ):
+        """Build an articulation; `link_objects` maps each link name to the object it belongs to.
+
+        fix_root=False leaves the root link free (a loose object made of jointed parts, e.g. a rope)."""
         if pose is not None:
             builder.set_initial_pose(pose)
-        art = builder.build(fix_root_link=True)
+        art = builder.build(fix_root_link=fix_root)
         art.set_name(name)
         for link in art.get_links():
             self.segment_names[link.entity.per_scene_id] = link_objects.get(link.name, name)

@@ -322,6 +322,13 @@ TASKS: dict[str, TaskRef] = {
             ("plate", "dish rack", "black rack", "red rack", "purple rack"),
             f"{_PKG}.unseen.take_plate_off_colored_dish_rack:TakePlateOffColoredDishRack",
         ),
+        TaskRef(
+            "straighten_rope",
+            "level2",
+            "straighten rope",
+            ("rope", "rope head", "rope tail", "head target", "tail target"),
+            f"{_PKG}.unseen.straighten_rope:StraightenRope",
+        ),
     )
 }
 

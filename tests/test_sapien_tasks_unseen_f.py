@@ -1,0 +1,110 @@
+"""Task-specific checks of the unseen level-2 SAPIEN task straighten_rope: plausible wrong
+outcomes are not a success.
+
+Each test drives the task's own scripted demonstrator and stops it early or changes one key
+action into the mistake (only the head placed, the tail set down short of its zone, the tail
+still held up over its zone, the ends swapped).
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+pytest.importorskip("sapien")
+
+TASK = "straighten_rope"
+
+
+def moved(action, dxyz=(0.0, 0.0, 0.0), gripper_open=None):
+    """The key action shifted by dxyz (metres), optionally with another gripper state."""
+    position = tuple(float(p + d) for p, d in zip(action.position, dxyz))
+    grip = action.gripper_open if gripper_open is None else gripper_open
+    return dataclasses.replace(action, position=position, gripper_open=grip)
+
+
+def in_zones(task):
+    return task.end_in_zone(task.head, task.zones[0]), task.end_in_zone(task.tail, task.zones[1])
+
+
+def releases(actions):
+    """Indices of the key actions that open a closed gripper."""
+    out, closed = [], False
+    for i, a in enumerate(actions):
+        if a.gripper_open and closed:
+            out.append(i)
+        closed = not a.gripper_open
+    return out
+
+
+def test_straighten_rope_only_the_head_placed_is_not_a_success(sim):
+    sim.reset_state(TASK, 0, 0)
+    task = sim.task
+    for action in task.demonstration():
+        assert sim.execute(action).ok
+        if not task.grasped() and in_zones(task)[0]:  # the head lies in its zone, let go
+            break
+    assert in_zones(task) == (True, False)
+    assert not sim.is_success()
+
+
+def test_straighten_rope_tail_set_down_short_of_its_zone_is_not_a_success(sim):
+    sim.reset_state(TASK, 2, 0)  # a seed whose tail still has to swing round after the pull
+    task = sim.task
+    seen = []
+    for action in task.demonstration():
+        seen.append(action)
+        if len(releases(seen)) == 1 and not action.gripper_open and not sim.robot.gripper_open:
+            # the tail is held and pulled out radially: put it down right there, rope still bent
+            assert sim.execute(action).ok
+            assert sim.execute(moved(action, (0.0, 0.0, -0.02), gripper_open=True)).ok
+            break
+        assert sim.execute(action).ok
+    assert not task.grasped()
+    assert in_zones(task) == (True, False)
+    assert not sim.is_success()
+
+
+def test_straighten_rope_tail_held_up_over_its_zone_is_not_a_success(sim):
+    sim.reset_state(TASK, 1, 0)
+    task = sim.task
+    seen = []
+    for action in task.demonstration():
+        seen.append(action)
+        if len(releases(seen)) == 2:  # the tail's release at the table: stay 2 cm up, closed
+            assert sim.execute(moved(action, (0.0, 0.0, 0.02), gripper_open=False)).ok
+            assert task.grasped()
+            tail, zone = np.asarray(task.tail.entity.pose.p), np.asarray(task.zones[1].pose.p)
+            assert np.linalg.norm(tail[:2] - zone[:2]) < 0.02  # right over the zone, but lifted
+            assert not sim.is_success()
+            assert sim.execute(action).success  # setting it down completes the task
+            return
+        assert sim.execute(action).ok
+    pytest.fail("the demonstrator never released the tail")
+
+
+def test_straighten_rope_ends_swapped_is_not_a_success(sim):
+    sim.reset_state(TASK, 5, 0)  # a seed where the demonstrator manages the swapped layout
+    task = sim.task
+    head_zone, tail_zone = (z.pose for z in task.zones)
+    # swap the zones' roles for the demonstrator: it lays the head into the tail zone and back
+    task.zones[0].set_pose(tail_zone)
+    task.zones[1].set_pose(head_zone)
+    task.axis += np.pi
+    for action in task.demonstration():
+        assert sim.execute(action).ok
+    assert sim.is_success()  # straight, with the ends in each other's zones
+    task.zones[0].set_pose(head_zone)
+    task.zones[1].set_pose(tail_zone)
+    assert in_zones(task) == (False, False)
+    assert not sim.is_success()
+
+
+def test_straighten_rope_starts_bent_with_both_ends_outside_their_zones(sim):
+    for seed in range(5):
+        sim.reset_state(TASK, seed, 0)
+        task = sim.task
+        assert in_zones(task) == (False, False)
+        head, tail = (np.asarray(e.entity.pose.p) for e in (task.head, task.tail))
+        assert np.linalg.norm(head - tail) < 0.30  # a curve: shorter than the 32 cm rope
+        assert abs(head[2] - tail[2]) < 1e-3  # lying flat on the table
