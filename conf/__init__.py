@@ -1,1 +1,19 @@
-"""conf."""
+"""The Hydra config tree of xicm (a package so that `initialize_config_module("xicm.conf")` and
+`pkg://xicm.conf` find it). Importing it registers the OmegaConf resolvers the configs use."""
+
+import hashlib
+
+from omegaconf import OmegaConf
+
+
+def short_dirname(text: str, limit: int = 120) -> str:
+    """A folder name of at most `limit` + 11 characters: long ones (e.g. a sweep over a long
+    task list) keep their start and get a hash of the whole, so they stay distinct."""
+    text = str(text)
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}-{hashlib.sha1(text.encode()).hexdigest()[:10]}"
+
+
+if not OmegaConf.has_resolver("xicm_dirname"):
+    OmegaConf.register_new_resolver("xicm_dirname", short_dirname)

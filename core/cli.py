@@ -8,6 +8,7 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig
 
+import xicm.conf  # noqa: F401  (registers the configs' OmegaConf resolvers)
 from xicm.core.errors import XicmError
 from xicm.core.plugins import UnknownPluginError
 

@@ -118,3 +118,12 @@ def test_unknown_policy_stops_with_the_list():
     cfg = _compose(["policy.name=greedy"])
     with pytest.raises(UnknownPluginError, match="unknown policy 'greedy'; available: oracle, xicm"):
         build.check_names(cfg, get_registry(), list(cfg.benchmark.tasks))
+
+
+def test_long_sweep_folder_names_are_cut_and_hashed():
+    from xicm.conf import short_dirname
+
+    long = "benchmark.tasks=[" + ",".join(f"task_number_{i}" for i in range(40)) + "],detector.noise_cm="
+    a, b = short_dirname(long + "0"), short_dirname(long + "8")
+    assert len(a) == 131 and a != b and a.startswith(long[:120])
+    assert short_dirname("prompt.k=6") == "prompt.k=6"
