@@ -168,6 +168,8 @@ def _worker_start(simulator_options: dict, detector_options: dict, camera: str) 
     from xicm.core.plugins import get_registry
 
     threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+    # one software-rendering thread per worker: the workers already fill the cores
+    os.environ.setdefault("LP_NUM_THREADS", "1")
 
     registry = get_registry()
     _WORKER["simulator"] = registry.create("simulator", simulator_options)
