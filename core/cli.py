@@ -67,7 +67,7 @@ def report_main(argv: list[str] | None = None) -> None:
     """xicm-report RUN_DIR [RUN_DIR ...]: print the table of finished or partial runs."""
     import json
 
-    from xicm.core.evaluate import EPISODES_FILE, read_episodes
+    from xicm.core.evaluate import EPISODES_FILE, run_rows
     from xicm.core.report import markdown_table, summarise
 
     args = sys.argv[1:] if argv is None else argv
@@ -99,7 +99,7 @@ def report_main(argv: list[str] | None = None) -> None:
                 _fail(XicmError(f"{run_dir} has no {EPISODES_FILE} and run.json; pass an xicm-eval output folder"))
             meta = json.loads(meta_path.read_text())
             print(f"## {run_dir}\n")
-            print(markdown_table(summarise(read_episodes(run_dir / EPISODES_FILE), meta["splits"], meta["tasks"])))
+            print(markdown_table(summarise(run_rows(run_dir, meta), meta["splits"], meta["tasks"])))
             print()
         if len(run_dirs) > 1:  # a sweep: one table over the runs, and a plot
             from xicm.core.sweep import sweep_markdown, write_sweep

@@ -35,6 +35,20 @@ def read_episodes(path: Path) -> list[dict[str, Any]]:
     return rows
 
 
+def run_rows(run_dir: Path, meta: dict[str, Any]) -> list[dict[str, Any]]:
+    """The episodes of a run that its config asks for (run.json's tasks, seeds and episodes).
+
+    An episodes file can hold more: a run resumed with fewer episodes or seeds keeps the rows of
+    the earlier, larger one. Reports count only the configured ones, as xicm-eval did.
+    """
+    rows = read_episodes(Path(run_dir) / EPISODES_FILE)
+    config = meta.get("config") or {}
+    if "seeds" not in config or "episodes" not in config:
+        return rows
+    keys = set(episode_keys(meta["tasks"], config["seeds"], config["episodes"]))
+    return [r for r in rows if (r["task"], int(r["seed"]), int(r["episode"])) in keys]
+
+
 def _repair_torn_tail(path: Path) -> None:
     """Cut a partial last line so the next append starts on a fresh line."""
     if not path.exists() or path.stat().st_size == 0:

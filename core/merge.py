@@ -2,7 +2,7 @@
 
 For runs sharded by task list, e.g. tasks run on several machines or a task added later:
 `xicm-report --merge OUT DIR [DIR ...]` checks that the runs' configs agree except for
-`benchmark.tasks` and `seeds` (and the keys a run may change when resumed), concatenates
+`benchmark.tasks`, `seeds` and `episodes` (and the keys a run may change when resumed), concatenates
 their episodes (the same (task, seed, episode) twice is an error) and writes OUT/episodes.jsonl,
 OUT/run.json (listing the sources), summary.json, table.md and tasks.csv.
 """
@@ -14,9 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from xicm.core.errors import XicmError
-from xicm.core.evaluate import EPISODES_FILE, read_episodes, write_json_atomic, write_text_atomic
+from xicm.core.evaluate import EPISODES_FILE, run_rows, write_json_atomic, write_text_atomic
 
-MAY_DIFFER = ("benchmark.tasks", "seeds", "paths.", "run_name", "tracking.", "progress", "llm_cache.", "collect.")
+MAY_DIFFER = ("benchmark.tasks", "seeds", "episodes", "paths.", "run_name", "tracking.", "progress", "llm_cache.", "collect.")
 
 
 def merge_runs(out_dir: Path, run_dirs: list[Path]) -> dict[str, Any]:
@@ -43,7 +43,7 @@ def merge_runs(out_dir: Path, run_dirs: list[Path]) -> dict[str, Any]:
     for run, meta in zip(run_dirs, metas):
         tasks += [t for t in meta["tasks"] if t not in tasks]
         splits.update(meta["splits"])
-        for row in read_episodes(run / EPISODES_FILE):
+        for row in run_rows(run, meta):
             key = (row["task"], int(row["seed"]), int(row["episode"]))
             if key in seen:
                 raise XicmError(f"episode {key} is in both {seen[key]} and {run}; not merged")
@@ -51,7 +51,12 @@ def merge_runs(out_dir: Path, run_dirs: list[Path]) -> dict[str, Any]:
             rows.append(row)
     out_dir.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out_dir / EPISODES_FILE, "".join(json.dumps(r) + "\n" for r in rows))
-    merged = {**metas[0], "tasks": tasks, "splits": splits, "merged_from": [str(r) for r in run_dirs]}
+    config = dict(metas[0].get("config", {}))
+    if "seeds" in config:  # the merged run covers every source's seeds and episodes
+        config["seeds"] = sorted({int(s) for m in metas for s in m.get("config", {}).get("seeds", [])})
+    if "episodes" in config:
+        config["episodes"] = max(int(m.get("config", {}).get("episodes", 0)) for m in metas)
+    merged = {**metas[0], "config": config, "tasks": tasks, "splits": splits, "merged_from": [str(r) for r in run_dirs]}
     merged.pop("fingerprint", None)  # a merged folder is a report, not a run to resume
     write_json_atomic(out_dir / "run.json", merged)
     return write_report(rows, splits, tasks, out_dir)

@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from xicm.core.evaluate import EPISODES_FILE, read_episodes
+from xicm.core.evaluate import EPISODES_FILE, run_rows
 from xicm.core.report import summarise
 
 # Config keys that never define a sweep axis (they change with the folder, not the experiment).
@@ -46,7 +46,7 @@ def collect_sweep(runs: list[Path]) -> dict[str, Any]:
     ]
     rows = []
     for run, meta, flat in zip(runs, metas, flats):
-        summary = summarise(read_episodes(run / EPISODES_FILE), meta["splits"], meta["tasks"])
+        summary = summarise(run_rows(run, meta), meta["splits"], meta["tasks"])
         rows.append(
             {
                 **{a: flat.get(a) for a in axes},

@@ -82,3 +82,14 @@ def test_merge_refuses_other_configs_and_duplicate_episodes(tmp_path, capsys):
         with pytest.raises(SystemExit):
             report_main(["--merge", str(tmp_path / "out"), str(a), str(other)])
         assert re.search(why, capsys.readouterr().err)
+
+
+def test_reports_count_only_the_episodes_the_run_asks_for(tmp_path, capsys):
+    """A run resumed with fewer episodes keeps the earlier rows in its file; reports ignore them."""
+    run = tmp_path / "run"
+    make_run(run, 0, "language", {("a", 0): [True, False, False]})
+    meta = json.loads((run / "run.json").read_text())
+    meta["config"].update(seeds=[0], episodes=1)
+    (run / "run.json").write_text(json.dumps(meta))
+    report_main([str(run)])
+    assert "| a | level1 | 100.0 | - | 1 |" in capsys.readouterr().out
