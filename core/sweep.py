@@ -35,15 +35,41 @@ def flatten(data: Any, prefix: str = "") -> dict[str, Any]:
     return {prefix[:-1]: json.dumps(data) if isinstance(data, list) else data}
 
 
-def collect_sweep(runs: list[Path]) -> dict[str, Any]:
-    """{'axes': [...], 'rows': [{axis values..., 'groups': {name: (mean, std, seeds)}, 'episodes': n, 'run': path}]}"""
-    metas = [json.loads((r / "run.json").read_text()) for r in runs]
-    flats = [flatten(m.get("config", {})) for m in metas]
-    keys = sorted({k for f in flats for k in f})
-    axes = [
+def job_overrides(run: Path) -> dict[str, Any] | None:
+    """The command-line overrides of a Hydra job (`.hydra/overrides.yaml`), or None."""
+    path = run / ".hydra" / "overrides.yaml"
+    if not path.exists():
+        return None
+    import yaml
+
+    out: dict[str, Any] = {}
+    for item in yaml.safe_load(path.read_text()) or []:
+        key, _, value = str(item).partition("=")
+        out[key.lstrip("+~")] = yaml.safe_load(value) if value else value
+    return out
+
+
+def varying(values: list[dict[str, Any]]) -> list[str]:
+    keys = sorted({k for v in values for k in v})
+    return [
         k for k in keys
-        if not k.startswith(IGNORED_PREFIXES) and len({json.dumps(f.get(k), default=str) for f in flats}) > 1
+        if not k.startswith(IGNORED_PREFIXES) and len({json.dumps(v.get(k), default=str) for v in values}) > 1
     ]
+
+
+def collect_sweep(runs: list[Path]) -> dict[str, Any]:
+    """{'axes': [...], 'rows': [{axis values..., 'groups': {name: (mean, std, seeds)}, 'episodes': n, 'run': path}]}
+
+    Axes are the overrides that differ between the jobs of a Hydra multirun (e.g. `retriever`,
+    `prompt.k`); for runs without Hydra's record, the config keys whose values differ.
+    """
+    metas = [json.loads((r / "run.json").read_text()) for r in runs]
+    overrides = [job_overrides(r) for r in runs]
+    if all(o is not None for o in overrides):
+        flats = overrides
+    else:
+        flats = [flatten(m.get("config", {})) for m in metas]
+    axes = varying(flats)
     rows = []
     for run, meta, flat in zip(runs, metas, flats):
         summary = summarise(run_rows(run, meta), meta["splits"], meta["tasks"])

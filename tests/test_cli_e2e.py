@@ -68,6 +68,14 @@ def test_multirun_sweeps_retriever_and_k(workdir):
     assert any("retriever=language" in j and "prompt.k=2" in j for j in jobs)
 
 
+def test_smoke_experiment_then_one_sweep_report(workdir):
+    work, common = workdir
+    _run("xicm-eval", "-m", "+experiment=smoke", "episodes=1", "hydra.sweep.dir=exp", *common, cwd=work)
+    out = _run("xicm-report", "exp", cwd=work)
+    assert "## sweep over retriever\n" in out.stdout
+    assert (work / "exp" / "sweep.png").exists() and len((work / "exp" / "sweep.csv").read_text().splitlines()) == 3
+
+
 def test_oracle_policy_needs_no_pool_and_solves_the_tasks(tmp_path):
     out = tmp_path / "oracle"
     _run(

@@ -127,3 +127,18 @@ def test_long_sweep_folder_names_are_cut_and_hashed():
     a, b = short_dirname(long + "0"), short_dirname(long + "8")
     assert len(a) == 131 and a != b and a.startswith(long[:120])
     assert short_dirname("prompt.k=6") == "prompt.k=6"
+
+
+@pytest.mark.parametrize("name", sorted(p.stem for p in (CONF / "experiment").glob("*.yaml")))
+def test_every_experiment_composes_and_sweeps_what_exists(name):
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        cfg = compose("config", overrides=[f"+experiment={name}"], return_hydra_config=True)
+    params = dict(cfg.hydra.sweeper.params)
+    assert params, f"experiment {name} sweeps nothing"
+    for key, values in params.items():
+        if key in GROUPS:  # a config group: every swept option must be a file of the group
+            options = {p.stem for p in (CONF / key).glob("*.yaml")}
+            assert set(str(values).split(",")) <= options, (key, values)
+        else:  # a value: the key must exist in the composed config
+            assert OmegaConf.select(cfg, key) is not None, key
+    assert set(cfg.benchmark.tasks) <= set(get_registry().names("task"))

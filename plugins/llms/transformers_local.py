@@ -46,6 +46,9 @@ stop ("auto")
     action list per line, so the model cannot start inventing another demo); none for chat
     templates (their end-of-turn token stops generation). A list of strings, or null for none.
 dtype ("float32"), device ("auto" = cuda when available, else cpu), torch_threads (None)
+trust_remote_code (False)
+    Let transformers run the model folder's own Python code (models not built into transformers,
+    e.g. InternLM3). Only for weights whose source you trust.
 
 identity() is a JSON string of the model and every setting that changes the reply.
 """
@@ -91,6 +94,7 @@ class TransformersLocalLLM(LLM):
         dtype: str = "float32",
         device: str = "auto",
         torch_threads: int | None = None,
+        trust_remote_code: bool = False,
     ):
         if chat_template not in CHAT_TEMPLATE_MODES and not ("{{" in chat_template or "{%" in chat_template):
             raise ConfigError(
@@ -121,6 +125,7 @@ class TransformersLocalLLM(LLM):
         self.dtype_name = str(dtype)
         self.device_option = str(device)
         self.torch_threads = None if torch_threads is None else int(torch_threads)
+        self.trust_remote_code = bool(trust_remote_code)
         self.source, self.gguf_file, self.model_label = self._resolve(self.model_option)
         self._model = None
         self._tokenizer = None
@@ -180,6 +185,8 @@ class TransformersLocalLLM(LLM):
         if dtype is None:
             raise ConfigError(f"llm.dtype '{self.dtype_name}' is not a torch dtype (e.g. float32, bfloat16, auto)")
         kwargs: dict[str, Any] = {"local_files_only": True}
+        if self.trust_remote_code:
+            kwargs["trust_remote_code"] = True
         if self.gguf_file:
             kwargs["gguf_file"] = self.gguf_file
         try:
