@@ -76,6 +76,25 @@ def test_smoke_experiment_then_one_sweep_report(workdir):
     assert (work / "exp" / "sweep.png").exists() and len((work / "exp" / "sweep.csv").read_text().splitlines()) == 3
 
 
+def test_a_killed_multirun_rerun_finishes_only_what_is_missing(workdir):
+    work, common = workdir
+    sweep = ["xicm-eval", "-m", "retriever=random,language", "benchmark.tasks=[push_buttons]", "episodes=2",
+             "hydra.sweep.dir=resume", *common]
+    _run(*sweep, cwd=work)
+    jobs = sorted((work / "resume").rglob("episodes.jsonl"))
+    assert len(jobs) == 2
+    before = [j.read_text() for j in jobs]
+    kept = before[0].splitlines(keepends=True)[0]
+    jobs[0].write_text(kept)  # as if killed after its first episode
+    (jobs[0].parent / "summary.json").unlink()
+    _run(*sweep, cwd=work)
+    after = [j.read_text() for j in jobs]
+    assert after[1] == before[1]  # the finished job ran nothing again (timings would differ)
+    lines = after[0].splitlines(keepends=True)
+    assert len(lines) == 2 and lines[0] == kept  # the kept episode was not re-run, the missing one was
+    assert (jobs[0].parent / "summary.json").exists()
+
+
 def test_oracle_policy_needs_no_pool_and_solves_the_tasks(tmp_path):
     out = tmp_path / "oracle"
     _run(
