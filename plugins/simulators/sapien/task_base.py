@@ -204,3 +204,19 @@ def push_lid_shut(root: sapien.Pose, hinge_xz, thickness: float, theta0: float, 
     shut = point(0.0, 0.11, 0.012)
     keys += [Task.key(shut + [0.0, 0.0, 0.05], quat, False), Task.key(shut, quat, False)]
     return keys
+
+
+def push_door_shut(push_pose, theta0: float, lift: float, angles) -> list:
+    """Key actions closing a vertical door with the side of the closed fingers.
+
+    `push_pose(theta, standoff, turn)` gives (position, quaternion, turn) next to the door open by
+    `theta` (see door_push_pose). Start 6 cm off the open door and `lift` above that, then push
+    through the door angles `angles`, keeping the first wrist choice throughout.
+    """
+    finger_half = 0.009  # half thickness of the closed fingers along the hand's x axis
+    p, q, turn = push_pose(theta0, 0.06, None)
+    keys = [Task.key(p + [0.0, 0.0, lift], q, False), Task.key(p, q, False)]  # above, clear of the door
+    for theta in angles:
+        p, q, _ = push_pose(theta, finger_half + 0.006, turn)
+        keys.append(Task.key(p, q, False))
+    return keys

@@ -22,7 +22,7 @@ import sapien
 
 from ...objects import add_box, add_cylinder, look, yaw_pose
 from ...scene import TABLE_TOP_Z
-from ...task_base import Task, door_push_pose
+from ...task_base import Task, door_push_pose, push_door_shut
 
 DEPTH, WIDTH, HEIGHT = 0.24, 0.25, 0.44
 SPLIT_Z = 0.25  # height of the gap between the bottom and the top door
@@ -112,10 +112,5 @@ class CloseFridge(Task):
 
     def demonstration(self):
         theta0 = self.angle()
-        finger_half = 0.009  # half thickness of the closed fingers along the hand's x axis
-        p, q, turn = self._push_pose(theta0, 0.06)  # one wrist choice for the whole push
-        yield self.key(p + [0.0, 0.0, 0.06], q, gripper_open=False)  # above, clear of the door
-        yield self.key(p, q, gripper_open=False)
-        for theta in (theta0 - np.deg2rad(20), theta0 - np.deg2rad(38), theta0 - np.deg2rad(55)):
-            p, q, _ = self._push_pose(theta, finger_half + 0.006, turn)
-            yield self.key(p, q, gripper_open=False)
+        angles = (theta0 - np.deg2rad(20), theta0 - np.deg2rad(38), theta0 - np.deg2rad(55))
+        yield from push_door_shut(self._push_pose, theta0, 0.06, angles)
