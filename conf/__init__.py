@@ -15,5 +15,12 @@ def short_dirname(text: str, limit: int = 120) -> str:
     return f"{text[:limit]}-{hashlib.sha1(text.encode()).hexdigest()[:10]}"
 
 
+def first_set(*values):
+    """The first value that is set (not None, not empty): `${xicm_first:${a},${b}}` is a, else b."""
+    return next((v for v in values if v not in (None, "")), None)
+
+
 if not OmegaConf.has_resolver("xicm_dirname"):
     OmegaConf.register_new_resolver("xicm_dirname", short_dirname)
+if not OmegaConf.has_resolver("xicm_first"):
+    OmegaConf.register_new_resolver("xicm_first", first_set)

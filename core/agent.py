@@ -40,6 +40,7 @@ class XICMPolicy(Policy):
         self.demos: list[Demo] | None = None
         self.llm_calls = 0
         self._record: dict = {"retrieved": [], "prompt_hash": None, "responses": [], "extra": {}}
+        self._calls: list[dict] = []  # every prompt and reply: the episode's transcript file
         self._timings: dict[str, float] = {}
 
     def act(self, obs: Observation) -> list[KeyAction]:
@@ -62,8 +63,11 @@ class XICMPolicy(Policy):
             prompt = self.prompt_builder.build(self.demos, query, self.workspace)
         if self._record["prompt_hash"] is None:
             self._record["prompt_hash"] = prompt_hash(prompt.messages)
+        call = {"messages": prompt.messages, "reply": None}
+        self._calls.append(call)
         with self._stage("llm", "llm_error"):
             reply = self.llm.complete(prompt)
+        call["reply"] = reply
         self.llm_calls += 1
         self._record["responses"].append(reply)
         with self._stage("parse", "parse_error"):
@@ -73,7 +77,7 @@ class XICMPolicy(Policy):
         return actions
 
     def record(self) -> dict:
-        return {**self._record, "timings": dict(self._timings)}
+        return {**self._record, "timings": dict(self._timings), "transcript": list(self._calls)}
 
     @contextmanager
     def _stage(self, name: str, error_kind: str):

@@ -49,6 +49,19 @@ def collect_main(cfg: DictConfig) -> None:
         _fail(exc)
 
 
+@hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="train_dynamics")
+def train_dynamics_main(cfg: DictConfig) -> None:
+    """Train the dynamics model of demonstration selection on a pool (resumable)."""
+    try:
+        from xicm.plugins.dynamics.train import run_training
+    except ImportError as exc:
+        _fail(RuntimeError(f"xicm-train-dynamics needs torch and diffusers ({exc}); pip install 'xicm[dynamics]'"))
+    try:
+        run_training(cfg)
+    except (XicmError, UnknownPluginError) as exc:
+        _fail(exc)
+
+
 def plugins_main() -> None:
     """Print every loaded plugin with its version and hooks, and what each family offers."""
     from xicm.core.plugins import KINDS, describe_plugins, get_registry
@@ -68,7 +81,7 @@ def report_main(argv: list[str] | None = None) -> None:
     import json
 
     from xicm.core.evaluate import EPISODES_FILE, run_rows
-    from xicm.core.report import markdown_table, summarise
+    from xicm.core.report import markdown_table, media_lines, summarise
 
     args = sys.argv[1:] if argv is None else argv
     if not args or args[0] in ("-h", "--help"):
@@ -99,7 +112,10 @@ def report_main(argv: list[str] | None = None) -> None:
                 _fail(XicmError(f"{run_dir} has no {EPISODES_FILE} and run.json; pass an xicm-eval output folder"))
             meta = json.loads(meta_path.read_text())
             print(f"## {run_dir}\n")
-            print(markdown_table(summarise(run_rows(run_dir, meta), meta["splits"], meta["tasks"])))
+            rows = run_rows(run_dir, meta)
+            print(markdown_table(summarise(rows, meta["splits"], meta["tasks"])))
+            for line in media_lines(rows, run_dir):  # rollout videos and LLM transcripts, if any
+                print(line)
             print()
         if len(run_dirs) > 1:  # a sweep: one table over the runs, and a plot
             from xicm.core.sweep import sweep_markdown, write_sweep

@@ -10,21 +10,34 @@ from __future__ import annotations
 
 import time
 import traceback
+from pathlib import Path
 
 from xicm.core.errors import EpisodeFailure, LLMError
 from xicm.core.interfaces import Policy, Simulator
 from xicm.core.seeding import episode_rng
+from xicm.core.transcripts import write_transcript
 from xicm.core.types import EpisodeResult
+from xicm.core.video import EpisodeVideo, VideoSettings
 
 
 def run_episode(
-    simulator: Simulator, policy: Policy, task: str, seed: int, episode: int, max_steps: int = 25
+    simulator: Simulator,
+    policy: Policy,
+    task: str,
+    seed: int,
+    episode: int,
+    max_steps: int = 25,
+    video: VideoSettings | None = None,
+    transcripts_dir: Path | None = None,
 ) -> EpisodeResult:
+    """`video`: record the rollout (core/video.py); `transcripts_dir`: the run folder under which
+    the policy's prompts and replies, if it keeps them (record()["transcript"]), are written."""
     result = EpisodeResult(task=task, seed=int(seed), episode=int(episode), success=False, steps=0)
     timings: dict[str, float] = {}
     start = time.perf_counter()
+    recorder = None if video is None else EpisodeVideo(video, task, seed, episode)
     try:
-        _loop(simulator, policy, result, int(max_steps), timings)
+        _loop(simulator, policy, result, int(max_steps), timings, recorder)
     except EpisodeFailure as failure:
         result.error_kind, result.error_message = failure.kind, failure.message
     except LLMError as exc:
@@ -40,12 +53,21 @@ def run_episode(
         if key in record:
             setattr(result, key, record[key])
     timings.update(record.get("timings", {}))
+    if recorder is not None:  # never raises: a video problem is only noted in extra
+        result.extra = {**result.extra, **recorder.finish(result.success)}
+        timings["video"] = recorder.seconds
+        if "execute" in timings:  # pictures taken during a move count as video, not execute
+            timings["execute"] -= recorder.seconds_in_callbacks
+    if transcripts_dir is not None and record.get("transcript"):
+        result.extra = {**result.extra, **write_transcript(transcripts_dir, task, seed, episode, record["transcript"])}
     result.timings = {k: round(v, 4) for k, v in timings.items()}
     result.timings["total"] = round(time.perf_counter() - start, 4)
     return result
 
 
-def _loop(simulator: Simulator, policy: Policy, result: EpisodeResult, max_steps: int, timings: dict) -> None:
+def _loop(
+    simulator: Simulator, policy: Policy, result: EpisodeResult, max_steps: int, timings: dict, video: EpisodeVideo | None
+) -> None:
     def timed(stage: str, fn, *args):
         t0 = time.perf_counter()
         try:
@@ -57,6 +79,8 @@ def _loop(simulator: Simulator, policy: Policy, result: EpisodeResult, max_steps
         obs = timed("reset", simulator.reset, result.task, result.seed, result.episode)
     except Exception as exc:
         raise EpisodeFailure("sim_error", f"reset failed: {type(exc).__name__}: {exc}") from exc
+    if video is not None:
+        video.start(simulator, obs)
     policy.reset(result.task, obs, episode_rng(result.seed, result.task, result.episode, stream="policy"))
     while result.steps < max_steps:
         actions = policy.act(obs)
@@ -67,6 +91,8 @@ def _loop(simulator: Simulator, policy: Policy, result: EpisodeResult, max_steps
                 break
             outcome = timed("execute", simulator.execute, action)
             result.steps += 1
+            if video is not None:
+                video.action_done()
             if not outcome.ok:
                 raise EpisodeFailure(outcome.error_kind or "sim_error", outcome.error_message or "step failed")
             if outcome.success:

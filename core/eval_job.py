@@ -10,15 +10,17 @@ from typing import Any
 from omegaconf import DictConfig, OmegaConf
 
 from xicm.core import build, report
-from xicm.core.episode import run_episode
 from xicm.core.errors import ConfigError
 from xicm.core.interfaces import PolicyContext
 from xicm.core.evaluate import episode_keys, run_episodes, write_json_atomic, write_text_atomic
 from xicm.core.plugins import describe_plugins, get_registry
+from xicm.core.ray_shards import episode_runner, shard_settings
 from xicm.core.tracking import Tracker
+from xicm.core.video import VideoSettings
 
 # Keys that may change between an interrupted run and its resumption.
-RESUMABLE_KEYS = ("seeds", "episodes", "progress", "tracking", "paths", "llm_cache", "run_name", "collect")
+RESUMABLE_KEYS = ("seeds", "episodes", "progress", "tracking", "paths", "llm_cache", "run_name", "collect", "shards",
+                  "video", "transcripts")
 
 
 def config_fingerprint(cfg: DictConfig) -> str:
@@ -45,6 +47,8 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     registry = get_registry()
     tasks = list(cfg.benchmark.tasks)
     build.check_names(cfg, registry, tasks)
+    shards = shard_settings(cfg)
+    video = VideoSettings.from_config(cfg, out_dir)
     check_resume(out_dir, cfg)
     out_dir.mkdir(parents=True, exist_ok=True)
 
@@ -68,25 +72,24 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
                 "config": OmegaConf.to_container(cfg, resolve=True),
             },
         )
-        tracker = Tracker(
-            mode=cfg.tracking.mode,
-            project=cfg.tracking.project,
-            run_name=str(cfg.run_name),
-            out_dir=str(out_dir),
-            config={**OmegaConf.to_container(cfg, resolve=True), "plugins": plugins},
-        )
+        tracker = Tracker.for_job(cfg, out_dir, config={**OmegaConf.to_container(cfg, resolve=True), "plugins": plugins})
         try:
             keys = episode_keys(tasks, cfg.seeds, cfg.episodes)
             max_steps = int(cfg.max_steps)
-            rows = run_episodes(
-                lambda task, seed, episode: run_episode(simulator, policy, task, seed, episode, max_steps),
-                keys,
-                out_dir,
-                progress=bool(cfg.progress),
-                on_result=lambda r: tracker.log({"success": int(r.success), "steps": r.steps, f"task/{r.task}/success": int(r.success)}),
-            )
+            transcripts_dir = out_dir if cfg.get("transcripts", True) else None
+            with episode_runner(
+                shards, cfg, out_dir, keys, simulator, policy, max_steps=max_steps, video=video, transcripts_dir=transcripts_dir
+            ) as run_one:
+                rows = run_episodes(
+                    run_one,
+                    keys,
+                    out_dir,
+                    progress=bool(cfg.progress),
+                    on_result=lambda r: tracker.log({"success": int(r.success), "steps": r.steps, f"task/{r.task}/success": int(r.success)}),
+                )
             summary = write_report(rows, splits, tasks, out_dir)
             _track_summary(tracker, summary)
+            tracker.log_run_media(rows, out_dir)
         finally:
             note = tracker.finish()
             if note:
@@ -99,7 +102,8 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
 def write_report(rows: list[dict[str, Any]], splits: dict[str, str], tasks: list[str], out_dir: Path) -> dict[str, Any]:
     summary = report.summarise(rows, splits, tasks)
     write_json_atomic(out_dir / "summary.json", summary)
-    write_text_atomic(out_dir / "table.md", report.markdown_table(summary) + "\n")
+    media = "".join("\n" + line for line in report.media_lines(rows, out_dir))
+    write_text_atomic(out_dir / "table.md", report.markdown_table(summary) + media + "\n")
     write_text_atomic(out_dir / "tasks.csv", report.tasks_csv(summary))
     return summary
 

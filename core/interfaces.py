@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -59,6 +59,12 @@ class Simulator(ABC):
         true state after the previous one was executed (what the oracle policy plays)."""
         raise NotImplementedError(f"{type(self).__name__} has no scripted solutions")
 
+    def set_frame_callback(self, callback: Callable[[], None] | None) -> bool:
+        """Optional: call `callback()` after every control frame stepped while executing actions
+        (None removes it; a reset removes it too). Returns False when the simulator cannot: a
+        rollout video then gets one picture per key action instead of one per control frame."""
+        return False
+
     @abstractmethod
     def demonstrate(self) -> Trajectory:
         """Run the task's scripted demonstrator from the current reset state and record it."""
@@ -77,6 +83,9 @@ class Detector(ABC):
 
 class Encoder(ABC):
     """Turns a (first frame, instruction) pair into a feature vector for retrieval."""
+
+    #: True when features depend on the frame: feature caches then hash the pool's frames too.
+    uses_images: bool = False
 
     @abstractmethod
     def encode(self, items: list[tuple[np.ndarray | None, str]]) -> np.ndarray:
@@ -140,7 +149,8 @@ class Policy(ABC):
 
     def record(self) -> dict:
         """Facts about the episode so far for episodes.jsonl: any of `retrieved`, `prompt_hash`,
-        `responses`, `timings` (seconds per stage) and `extra` (anything JSON-serialisable)."""
+        `responses`, `timings` (seconds per stage) and `extra` (anything JSON-serialisable);
+        `transcript` (a list of {"messages", "reply"} per LLM call) goes to its own file instead."""
         return {}
 
 

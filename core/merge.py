@@ -16,7 +16,8 @@ from typing import Any
 from xicm.core.errors import XicmError
 from xicm.core.evaluate import EPISODES_FILE, run_rows, write_json_atomic, write_text_atomic
 
-MAY_DIFFER = ("benchmark.tasks", "seeds", "episodes", "paths.", "run_name", "tracking.", "progress", "llm_cache.", "collect.")
+MAY_DIFFER = ("benchmark.tasks", "seeds", "episodes", "paths.", "run_name", "tracking.", "progress", "llm_cache.", "collect.", "shards.",
+              "video.", "transcripts")
 
 
 def merge_runs(out_dir: Path, run_dirs: list[Path]) -> dict[str, Any]:

@@ -25,6 +25,8 @@ BUILTIN_PLUGINS = (
     "xicm.plugins.retrievers.random",
     "xicm.plugins.retrievers.similarity",
     "xicm.plugins.encoders.minilm",
+    "xicm.plugins.encoders.dynamics",
+    "xicm.plugins.retrievers.dynamics",
     "xicm.plugins.prompts.xicm_prompt",
     "xicm.plugins.llms.transformers_local",
     "xicm.plugins.llms.openai_compatible",

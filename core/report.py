@@ -7,6 +7,7 @@ import io
 import math
 from collections import defaultdict
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -114,6 +115,35 @@ def markdown_table(summary: dict[str, Any]) -> str:
         stages = ", ".join(f"{k} {v:.2f}" for k, v in seconds.items() if k != "total")
         lines.append(f"Seconds per episode: {stages}; total {seconds.get('total', 0.0):.2f}.")
     return "\n".join(lines)
+
+
+def media_lines(rows: Sequence[dict[str, Any]], run_dir: Path, links_per_task: int = 4) -> list[str]:
+    """Markdown lines naming the run's rollout videos (one line per task, failures linked first)
+    and LLM transcripts; paths are relative to `run_dir`, where table.md lives. [] if none."""
+    videos: dict[str, list[str]] = defaultdict(list)
+    transcripts: dict[str, int] = defaultdict(int)
+    video_errors = 0
+    for r in rows:
+        extra = r.get("extra") or {}
+        if extra.get("video") and (Path(run_dir) / extra["video"]).is_file():
+            videos[r["task"]].append(extra["video"])
+        video_errors += bool(extra.get("video_error"))
+        if extra.get("transcript") and (Path(run_dir) / extra["transcript"]).is_file():
+            transcripts[r["task"]] += 1
+    lines = []
+    if videos or video_errors:
+        lines += ["", "Rollout videos (videos/<task>/s<seed>-e<episode>-PASS|FAIL.mp4):"]
+        for task, paths in videos.items():
+            passed = sum(p.endswith("-PASS.mp4") for p in paths)
+            shown = sorted(paths, key=lambda p: (p.endswith("-PASS.mp4"), p))[:links_per_task]
+            links = ", ".join(f"[{Path(p).stem}]({p})" for p in shown) + (", ..." if len(paths) > len(shown) else "")
+            lines.append(f"- {task}: {len(paths)} ({passed} PASS, {len(paths) - passed} FAIL): {links}")
+        if video_errors:
+            lines.append(f"- {video_errors} episodes without a video (see extra.video_error in episodes.jsonl)")
+    if transcripts:
+        counts = ", ".join(f"{task} {n}" for task, n in transcripts.items())
+        lines += ["", f"LLM prompts and replies (transcripts/<task>/s<seed>-e<episode>.json): {counts} episodes."]
+    return lines
 
 
 def tasks_csv(summary: dict[str, Any]) -> str:

@@ -19,7 +19,7 @@ from xicm.core.evaluate import EPISODES_FILE, run_rows
 from xicm.core.report import summarise
 
 # Config keys that never define a sweep axis (they change with the folder, not the experiment).
-IGNORED_PREFIXES = ("paths.", "run_name", "hydra", "tracking.", "progress", "llm_cache.", "collect.")
+IGNORED_PREFIXES = ("paths.", "run_name", "hydra", "tracking.", "progress", "llm_cache.", "collect.", "shards.")
 
 
 def find_runs(root: Path) -> list[Path]:
@@ -45,7 +45,9 @@ def job_overrides(run: Path) -> dict[str, Any] | None:
     out: dict[str, Any] = {}
     for item in yaml.safe_load(path.read_text()) or []:
         key, _, value = str(item).partition("=")
-        out[key.lstrip("+~")] = yaml.safe_load(value) if value else value
+        parsed = yaml.safe_load(value) if value else value
+        # a list or dict value (e.g. seeds=[0]) stays the text given: axis values must be hashable
+        out[key.lstrip("+~")] = value if isinstance(parsed, (list, dict)) else parsed
     return out
 
 

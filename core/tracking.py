@@ -1,15 +1,57 @@
-"""wandb tracking: one run per Hydra job; offline by default, 'disabled' in tests."""
+"""wandb tracking: one run per Hydra job, grouped by experiment; offline by default, 'disabled' in tests.
+
+A sweep's jobs share a wandb group (`tracking.group`: the `+experiment=NAME` preset, otherwise
+the benchmark), and each job's overrides become its job type and tags, so the wandb UI can
+group and filter them the way xicm-report's sweep table does.
+"""
 
 from __future__ import annotations
 
+import hashlib
 import os
+from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
+
+WANDB_LABEL_LIMIT = 64  # wandb refuses longer tags (and job types)
+
+
+def short_label(text: str, limit: int = WANDB_LABEL_LIMIT) -> str:
+    """`text` if short enough, else its start and a hash of the whole (still distinct)."""
+    text = str(text)
+    if len(text) <= limit:
+        return text
+    return f"{text[: limit - 11]}-{hashlib.sha1(text.encode()).hexdigest()[:10]}"
+
+
+def job_overrides() -> list[str]:
+    """This Hydra job's `key=value` overrides (command line and sweep), without the keys
+    excluded from sweep folder names (paths, progress, ...); [] outside a Hydra job."""
+    try:
+        from hydra.core.hydra_config import HydraConfig
+    except ImportError:
+        return []
+    if not HydraConfig.initialized():
+        return []
+    hc = HydraConfig.get()
+    excluded = set(hc.job.config.override_dirname.exclude_keys or ())
+    return [o for o in hc.overrides.task if o.split("=", 1)[0].lstrip("+~") not in excluded]
 
 
 class Tracker:
     """Thin wrapper so the rest of the code never imports wandb itself."""
 
-    def __init__(self, mode: str, project: str, run_name: str, out_dir: str, config: dict[str, Any], tags: list[str] | None = None):
+    def __init__(
+        self,
+        mode: str,
+        project: str,
+        run_name: str,
+        out_dir: str,
+        config: dict[str, Any],
+        tags: list[str] | None = None,
+        group: str | None = None,
+        job_type: str | None = None,
+    ):
         self._run = None
         if mode == "disabled" or os.environ.get("WANDB_MODE") == "disabled":
             return
@@ -22,9 +64,28 @@ class Tracker:
             dir=out_dir,
             mode=mode,
             config=config,
-            tags=tags or [],
+            group=short_label(group, 128) if group else None,
+            job_type=short_label(job_type) if job_type else None,
+            tags=[short_label(t) for t in tags or []],
             reinit="finish_previous",
             settings=wandb.Settings(silent=True),
+        )
+
+    @classmethod
+    def for_job(cls, cfg: Any, out_dir: Path, config: dict[str, Any]) -> Tracker:
+        """The tracker of an xicm-eval job: `tracking.*` keys, grouped by `tracking.group`,
+        job type and tags from the job's overrides (job type 'eval' when there are none)."""
+        tracking = cfg.tracking
+        overrides = job_overrides()
+        return cls(
+            mode=str(tracking.mode),
+            project=str(tracking.project),
+            run_name=str(cfg.run_name),
+            out_dir=str(out_dir),
+            config=config,
+            tags=overrides,
+            group=tracking.get("group"),
+            job_type=",".join(overrides) or "eval",
         )
 
     @property
@@ -39,6 +100,37 @@ class Tracker:
         if self._run is not None:
             self._run.log({key: self._wandb.Table(columns=columns, data=rows)})
 
+    def log_images(self, paths: Iterable[Path]) -> None:
+        """One `plots/<file stem>` image per PNG (the report's plots)."""
+        if self._run is not None:
+            images = {f"plots/{Path(p).stem}": self._wandb.Image(str(p)) for p in paths}
+            if images:
+                self._run.log(images)
+
+    def log_videos(self, videos: dict[str, list[Path]]) -> None:
+        """Rollout videos, one `videos/<task>` entry per task, captioned with their file names."""
+        if self._run is not None and videos:
+            self._run.log(
+                {
+                    f"videos/{task}": [self._wandb.Video(str(p), caption=Path(p).stem, format="mp4") for p in paths]
+                    for task, paths in videos.items()
+                    if paths
+                }
+            )
+
+    def log_run_media(self, rows: Iterable[dict[str, Any]], run_dir: Path) -> None:
+        """The run folder's plots (*.png) and the rollout videos its episode rows name."""
+        if self._run is None:
+            return
+        run_dir = Path(run_dir)
+        self.log_images(sorted(run_dir.glob("*.png")))
+        videos: dict[str, list[Path]] = {}
+        for row in rows:
+            rel = (row.get("extra") or {}).get("video")
+            if rel and (run_dir / rel).is_file():
+                videos.setdefault(row["task"], []).append(run_dir / rel)
+        self.log_videos(videos)
+
     def summary(self, values: dict[str, Any]) -> None:
         if self._run is not None:
             self._run.summary.update(values)
@@ -51,4 +143,7 @@ class Tracker:
         where = str(self._run.settings.sync_dir)
         self._run.finish()
         self._run = None
+        # finish() can return before wandb-core has written the run file (wandb 0.31 offline: 2 of
+        # 8 runs held only the file header right after it); teardown waits until it is written
+        self._wandb.teardown()
         return f"wandb ({mode}): {where}" + (" (upload with `wandb sync` on that folder)" if mode == "offline" else "")

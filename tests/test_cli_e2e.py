@@ -105,3 +105,19 @@ def test_oracle_policy_needs_no_pool_and_solves_the_tasks(tmp_path):
     assert {r["task"]: r["success"] for r in summary["tasks"]} == {t: 100.0 for t in ("open_drawer", "push_buttons", "close_microwave")}
     assert json.loads((out / "run.json").read_text())["policy"] == "oracle"
     assert not (tmp_path / "nothing").exists()
+
+
+def test_train_dynamics_then_a_selection_sweep_shares_one_feature_cache(workdir):
+    work, common = workdir
+    out = _run(
+        "xicm-train-dynamics", "pool=smoke", "dynamics_model=tiny", "train.steps=6", "train.checkpoint_every=3",
+        "train.heldout_every=0", "tracking.mode=disabled", *common, cwd=work,
+    )
+    assert "step 6/6" in out.stdout and (work / "data" / "dynamics" / "smoke" / "final" / "unet" / "config.json").exists()
+    _run(
+        "xicm-eval", "-m", "retriever=dynamics", "prompt.k=1,2", "encoder.steps=2", "benchmark.tasks=[close_microwave]",
+        "episodes=1", "hydra.sweep.dir=dyn", *common, cwd=work,
+    )
+    rows = [json.loads(p.read_text()) for p in sorted((work / "dyn").rglob("episodes.jsonl"))]
+    assert [len(r["retrieved"]) for r in rows] == [1, 2]
+    assert len(list((work / "cache" / "features").glob("dynamics*.npy"))) == 1  # computed once, reused by the second job

@@ -4,7 +4,8 @@ Features come from the configured encoder: the query's is
 `encoder.encode([(query.front_rgb, query.instruction)])`, the pool's are
 `encoder.encode([(demo.first_rgb, demo.instruction), ...])`, computed once in `prepare(pool)`
 and cached on disk as an .npy file keyed by `encoder.cache_key()` and a hash of the pool's
-demo ids and instructions (written atomically: a temporary file, then a rename).
+demo ids and instructions (and first frames when the encoder's `uses_images` is true), written
+atomically (a temporary file, then a rename).
 Scores are cosine similarities; equal scores (to 1e-6) are ordered by demo id, so the
 ranking is deterministic.
 
@@ -40,12 +41,15 @@ def default_cache_dir() -> Path:
     return base / "features"
 
 
-def pool_fingerprint(encoder_key: str, pool: list[Demo]) -> str:
-    """sha256 over the encoder's cache key and every demo's id and instruction, in pool order."""
+def pool_fingerprint(encoder_key: str, pool: list[Demo], with_images: bool = False) -> str:
+    """sha256 over the encoder's cache key and every demo's id and instruction, in pool order
+    (and its first frame, for encoders whose features depend on the image)."""
     h = hashlib.sha256()
     h.update(encoder_key.encode())
     for d in pool:
         h.update(b"\0" + d.demo_id.encode() + b"\t" + d.instruction.encode())
+        if with_images and d.first_rgb is not None:
+            h.update(np.ascontiguousarray(d.first_rgb).tobytes())
     return h.hexdigest()
 
 
@@ -89,7 +93,8 @@ class SimilarityRetriever(Retriever):
             raise ValueError("the demonstration pool is empty; collect demonstrations first (xicm-collect)")
         key = self.encoder.cache_key()
         slug = re.sub(r"[^A-Za-z0-9._-]+", "_", key)[:60]
-        path = self.cache_dir / f"{slug}-{pool_fingerprint(key, pool)[:24]}.npy"
+        fingerprint = pool_fingerprint(key, pool, with_images=getattr(self.encoder, "uses_images", False))
+        path = self.cache_dir / f"{slug}-{fingerprint[:24]}.npy"
         feats = None
         if path.exists():
             try:

@@ -86,7 +86,7 @@ class SapienSimulator(Simulator):
         self.task.load()
         self.task.initialise(episode_rng(seed, task, episode), self.sample_variations)
         self.task_name, self.seed, self.episode = task, int(seed), int(episode)
-        self.controller.on_frame = self.task.on_frame
+        self.controller.on_frame = self.task.on_frame  # also drops a video frame callback
         self.controller.recorder = None
         # let objects settle under gravity before the episode starts
         for _ in range(self.controller.substeps * 2):
@@ -189,6 +189,22 @@ class SapienSimulator(Simulator):
         self.controller.move_joints(q)
         self.controller.set_gripper(bool(action.gripper_open))
         return StepOutcome(ok=True, success=self.is_success())
+
+    def set_frame_callback(self, callback) -> bool:
+        """Call `callback()` after every control frame (after the task's own frame hook); for
+        rollout videos. None, or the next reset, removes it."""
+        self._require_task()
+        task_hook = self.task.on_frame
+        if callback is None:
+            self.controller.on_frame = task_hook
+        else:
+
+            def both() -> None:
+                task_hook()
+                callback()
+
+            self.controller.on_frame = both
+        return True
 
     def is_success(self) -> bool:
         self._require_task()

@@ -1,0 +1,284 @@
+"""`xicm-train-dynamics`: train the dynamics model on a pool's (first frame, instruction) ->
+last frame pairs with the noise-prediction loss, resumably.
+
+Every `checkpoint_every` steps a checkpoint `checkpoints/step-NNNNNN/` is written (unet/ and
+scheduler/ in diffusers' save_pretrained format, dynamics.json, training_state.pt with the
+optimizer); a re-run of the same command continues from the newest one, and because each
+step's batch, noise and timesteps are drawn from (seed, step), a resumed run ends with the same
+weights as an uninterrupted one. At the end `final/` holds the model the `dynamics` encoder
+loads, `heldout.json` the prediction quality on held-out demos (against copying the first
+frame) and `heldout.png` predicted vs real last frames.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from omegaconf import DictConfig, OmegaConf
+
+from xicm.core.errors import ConfigError
+from xicm.core.tracking import Tracker
+from xicm.plugins.dynamics import model as dm
+from xicm.plugins.dynamics.data import Pairs, load_pairs, split
+from xicm.plugins.dynamics.images import to_model, to_uint8
+from xicm.plugins.dynamics.quality import comparison_picture, mse, ssim
+from xicm.plugins.dynamics.text import embed_unique, text_encoder
+
+STATE_FILE = "training_state.pt"
+# meta keys that must match for a checkpoint to be resumed
+RESUME_KEYS = ("model", "text_encoder", "dataset", "num_train_timesteps", "seed", "batch_size", "target", "target_scale")
+
+
+def _checkpoints(folder: Path) -> list[tuple[int, Path]]:
+    found = []
+    for p in folder.glob("step-*"):
+        if p.is_dir() and p.name[5:].isdigit() and (p / STATE_FILE).exists() and (p / dm.META_FILE).exists():
+            found.append((int(p.name[5:]), p))
+    return sorted(found)
+
+
+def _write_dir_atomic(final: Path, write) -> None:
+    """write(tmp_folder), then rename it to `final` (replacing an older one)."""
+    tmp = final.with_name(final.name + ".tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    write(tmp)
+    if final.exists():
+        shutil.rmtree(final)
+    os.replace(tmp, final)
+
+
+def _lr(step: int, base: float, warmup: int) -> float:
+    return base * min(1.0, (step + 1) / max(1, warmup))
+
+
+def _step_batch(seed: int, step: int, n: int, batch: int, shape: tuple[int, ...], timesteps: int):
+    """Indices, noise and timesteps of one step, a function of (seed, step) only."""
+    g = torch.Generator().manual_seed(int(seed) * 1_000_003 + int(step))
+    idx = torch.randint(0, n, (batch,), generator=g)
+    noise = torch.randn((batch, *shape), generator=g)
+    t = torch.randint(0, timesteps, (batch,), generator=g)
+    return idx, noise, t
+
+
+def run_training(cfg: DictConfig) -> dict[str, Any]:
+    train_cfg, model_cfg = cfg.train, OmegaConf.to_container(cfg.dynamics_model, resolve=True)
+    if train_cfg.threads:
+        torch.set_num_threads(int(train_cfg.threads))
+    res = int(model_cfg["resolution"])
+    tasks = list(cfg.tasks) if cfg.get("tasks") else None
+    pairs = load_pairs(cfg.pool_path, tasks)
+    train_set, heldout = split(pairs, int(train_cfg.heldout_every))
+    text_spec = OmegaConf.to_container(cfg.text_encoder, resolve=True)
+    text = text_encoder(text_spec)
+    context, _ = embed_unique(text, train_set.instructions)
+    first, last = to_model(train_set.first, res), to_model(train_set.last, res)
+    target = str(model_cfg.get("target", "residual"))
+    if target not in dm.TARGETS:
+        raise ConfigError(f"dynamics_model.target must be one of {', '.join(dm.TARGETS)}, got '{target}'")
+    meta = {
+        "target": target,
+        "target_scale": round(1.0 / max(float((last - first).std()), 1e-3), 4),
+        "format": "xicm-dynamics",
+        "resolution": res,
+        "model": model_cfg,
+        "text_encoder": text_spec,
+        "text_encoder_key": text.key,
+        "num_train_timesteps": int(train_cfg.num_train_timesteps),
+        "dataset": train_set.fingerprint(),
+        "pool_path": str(cfg.pool_path),
+        "train_demos": len(train_set),
+        "heldout_demos": len(heldout),
+        "heldout_every": int(train_cfg.heldout_every),
+        "seed": int(train_cfg.seed),
+        "batch_size": int(train_cfg.batch_size),
+    }
+    out = Path(cfg.out_dir)
+    ckpt_root = out / "checkpoints"
+    scheduler = dm.train_scheduler(meta["num_train_timesteps"])
+    unet, opt, step, seconds = _start(meta, ckpt_root, text.dim, train_cfg)
+    total = int(train_cfg.steps)
+    tracker = Tracker(
+        mode=cfg.tracking.mode,
+        project=cfg.tracking.project,
+        run_name=str(cfg.run_name),
+        out_dir=str(out),
+        config=OmegaConf.to_container(cfg, resolve=True),
+        tags=["train_dynamics"],
+    )
+    print(
+        f"[train-dynamics] {len(train_set)} training / {len(heldout)} held-out demos of {len(set(pairs.tasks))} tasks, "
+        f"{sum(p.numel() for p in unet.parameters()) / 1e6:.2f}M parameters, {res}x{res}, "
+        f"step {step} -> {total}" + (" (resumed)" if step else "")
+    )
+    try:
+        step, seconds = _train_loop(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_root, step, total, seconds, tracker, bool(cfg.progress))
+        unet.eval()
+        _write_dir_atomic(out / "final", lambda d: dm.save_checkpoint(d, unet, scheduler, {**meta, "step": step, "train_seconds": seconds}))
+        quality = evaluate_heldout(unet, scheduler.config, meta, heldout, text, res, cfg.evaluation, out)
+        summary = {"step": step, "train_seconds": round(seconds, 1), "final": str(out / "final"), **quality}
+        (out / "heldout.json").write_text(json.dumps(summary, indent=2), encoding="utf-8")
+        tracker.summary({f"heldout/{k}": v for k, v in quality.items() if isinstance(v, (int, float))})
+    finally:
+        note = tracker.finish()
+        if note:
+            print(note)
+    return summary
+
+
+def _start(meta: dict[str, Any], ckpt_root: Path, text_dim: int, train_cfg) -> tuple[Any, Any, int, float]:
+    """A fresh model, or the newest compatible checkpoint with its optimizer state."""
+    found = _checkpoints(ckpt_root)
+    if found:
+        step, folder = found[-1]
+        old = dm.read_meta(folder)
+        changed = [k for k in RESUME_KEYS if old.get(k) != meta.get(k)]
+        if changed:
+            raise ConfigError(
+                f"{ckpt_root} holds checkpoints of a different training setup ({', '.join(changed)} changed); "
+                "choose another out_dir or delete that folder"
+            )
+        unet = dm.load_unet(folder)
+        unet.train()
+        opt = _optimizer(unet, train_cfg)
+        state = torch.load(folder / STATE_FILE, weights_only=True)
+        opt.load_state_dict(state["optimizer"])
+        return unet, opt, step, float(state.get("seconds", 0.0))
+    torch.manual_seed(int(train_cfg.seed))
+    unet = dm.build_unet(meta["model"], text_dim)
+    unet.train()
+    return unet, _optimizer(unet, train_cfg), 0, 0.0
+
+
+def _optimizer(unet, train_cfg):
+    return torch.optim.AdamW(unet.parameters(), lr=float(train_cfg.lr), weight_decay=float(train_cfg.weight_decay))
+
+
+class LossLog:
+    """train_log.csv (step, loss, lr): rows past the step a run resumes from are dropped."""
+
+    def __init__(self, path: Path, resume_step: int):
+        rows = []
+        if path.exists():
+            with open(path, encoding="utf-8") as f:
+                rows = [line for line in f.read().splitlines()[1:] if line and int(line.split(",")[0]) <= resume_step]
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self._f = open(path, "w", encoding="utf-8")
+        self._f.write("\n".join(["step,loss,lr", *rows]) + "\n")
+        self._f.flush()
+
+    def add(self, step: int, loss: float, lr: float) -> None:
+        self._f.write(f"{step},{loss:.6f},{lr:.6g}\n")
+
+    def flush(self) -> None:
+        self._f.flush()
+
+    def close(self) -> None:
+        self._f.close()
+
+
+def _train_loop(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_root, step, total, seconds, tracker, progress):
+    log = LossLog(ckpt_root.parent / "train_log.csv", step)
+    try:
+        return _steps(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_root, step, total, seconds, tracker, progress, log)
+    finally:
+        log.close()
+
+
+def _steps(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_root, step, total, seconds, tracker, progress, log):
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=total, initial=step, desc="train-dynamics", unit="step", dynamic_ncols=True)
+    every = max(1, int(train_cfg.checkpoint_every))
+    log_every = max(1, int(train_cfg.log_every))
+    shape = tuple(last.shape[1:])
+    running = None
+    started = time.perf_counter() - seconds
+    while step < total:
+        idx, noise, t = _step_batch(meta["seed"], step, len(first), meta["batch_size"], shape, meta["num_train_timesteps"])
+        noisy = scheduler.add_noise(dm.encode_target(first[idx], last[idx], meta), noise, t)
+        pred = unet(torch.cat([noisy, first[idx]], dim=1), t, encoder_hidden_states=context[idx]).sample
+        loss = F.mse_loss(pred, noise)
+        for group in opt.param_groups:
+            group["lr"] = _lr(step, float(train_cfg.lr), int(train_cfg.warmup_steps))
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(unet.parameters(), 1.0)
+        opt.step()
+        step += 1
+        value = loss.item()
+        running = value if running is None else 0.98 * running + 0.02 * value
+        log.add(step, value, opt.param_groups[0]["lr"])
+        if step % log_every == 0:
+            tracker.log({"train/loss": value, "train/loss_smoothed": running, "train/lr": opt.param_groups[0]["lr"], "train/step": step})
+        if bar is not None:
+            bar.update(1)
+            bar.set_postfix_str(f"loss {running:.4f}")
+        if step % every == 0 or step == total:
+            seconds = time.perf_counter() - started
+            _save_checkpoint(ckpt_root, unet, scheduler, opt, meta, step, seconds, int(train_cfg.keep_checkpoints))
+            log.flush()
+            if bar is None:
+                print(f"[train-dynamics] step {step}/{total} loss {running:.4f} ({seconds / 60:.1f} min)", flush=True)
+    if bar is not None:
+        bar.close()
+    return step, time.perf_counter() - started
+
+
+def _save_checkpoint(root: Path, unet, scheduler, opt, meta, step: int, seconds: float, keep: int) -> None:
+    def write(folder: Path) -> None:
+        dm.save_checkpoint(folder, unet, scheduler, {**meta, "step": step, "train_seconds": seconds})
+        torch.save({"optimizer": opt.state_dict(), "step": step, "seconds": seconds}, folder / STATE_FILE)
+
+    root.mkdir(parents=True, exist_ok=True)
+    _write_dir_atomic(root / f"step-{step:06d}", write)
+    for _old_step, folder in _checkpoints(root)[: -max(1, keep)]:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def evaluate_heldout(unet, scheduler_config, meta: dict[str, Any], heldout: Pairs, text, res: int, ev, out: Path) -> dict[str, Any]:
+    """MSE and SSIM of sampled last frames vs the real ones, and of the first frame as a guess."""
+    if len(heldout) == 0:
+        print("[train-dynamics] no held-out demos (train.heldout_every < 2 or too few episodes): no quality figures")
+        return {"heldout_demos": 0}
+    context, _ = embed_unique(text, heldout.instructions)
+    first = to_model(heldout.first, res)
+    steps, batch = int(ev.sample_steps), int(ev.batch_size)
+    started = time.perf_counter()
+    predicted = torch.cat(
+        [
+            dm.predict_last(unet, scheduler_config, meta, first[i : i + batch], context[i : i + batch], steps, int(ev.seed))
+            for i in range(0, len(first), batch)
+        ]
+    )
+    sample_seconds = (time.perf_counter() - started) / len(first)
+    real = to_uint8(to_model(heldout.last, res))
+    guess, copy = to_uint8(predicted), to_uint8(first)
+    result = {
+        "heldout_demos": len(heldout),
+        "sample_steps": steps,
+        "seconds_per_sample": round(sample_seconds, 4),
+        "mse_predicted": float(mse(guess, real).mean()),
+        "mse_copy_first": float(mse(copy, real).mean()),
+        "ssim_predicted": float(ssim(guess, real).mean()),
+        "ssim_copy_first": float(ssim(copy, real).mean()),
+    }
+    # one picture row per task (its first held-out demo), up to evaluation.num_images
+    rows = list(dict.fromkeys(heldout.tasks))[: int(ev.num_images)]
+    pick = [heldout.tasks.index(t) for t in rows]
+    comparison_picture(out / "heldout.png", copy[pick], guess[pick], real[pick], [heldout.demo_ids[i] for i in pick])
+    print(
+        f"[train-dynamics] held-out ({len(heldout)} demos, {steps} sampling steps): "
+        f"MSE {result['mse_predicted']:.4f} (copy first frame {result['mse_copy_first']:.4f}), "
+        f"SSIM {result['ssim_predicted']:.3f} (copy first frame {result['ssim_copy_first']:.3f}); picture: {out / 'heldout.png'}"
+    )
+    return result

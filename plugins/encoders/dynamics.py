@@ -1,0 +1,153 @@
+"""Encoder "dynamics": what a trained dynamics model expects the scene to become, plus the text.
+
+A feature joins two L2-normalised parts, weighted so that the cosine similarity of two
+features is `(1 - text_weight) * visual cosine + text_weight * text cosine`:
+
+- visual, `mode: predicted_frame` (the paper's): the last frame the model samples from the
+  first frame and the instruction (deterministic DDIM, `steps` steps, fixed starting noise
+  `seed`), flattened; `visual: change` uses predicted last minus first frame instead.
+- visual, `mode: unet_features` (one forward pass): the UNet's mid-block and first up-block
+  activations from pure noise at the last training timestep, pooled to 2×2.
+- text: the checkpoint's text encoder's feature of the instruction (all-MiniLM by default; a
+  mean over real tokens for transformers encoders, so it really depends on the text).
+
+Options:
+    checkpoint: a folder written by xicm-train-dynamics (its `final/`, or the training
+        out_dir, whose `final/` is then used, or any `checkpoints/step-N/`).
+    mode: predicted_frame | unet_features (default predicted_frame).
+    visual: final | change (default final; predicted_frame mode only).
+    steps: DDIM sampling steps (default 10; the paper samples 50).
+    seed: starting noise (default 0).
+    text_weight: 0..1 (default 0.5).
+    batch_size: frames per forward pass (default 64).
+    device: torch device (default cpu).
+"""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from xicm.core.errors import ConfigError
+from xicm.core.hookspecs import hookimpl
+from xicm.core.interfaces import Encoder
+
+MODES = ("predicted_frame", "unet_features")
+VISUALS = ("final", "change")
+_models: dict[tuple[str, str], object] = {}
+_lock = threading.Lock()
+
+
+def resolve_checkpoint(path: str | Path) -> Path:
+    """The checkpoint folder itself, or <path>/final; ConfigError naming what to do otherwise."""
+    folder = Path(str(path)).expanduser()
+    for candidate in (folder, folder / "final"):
+        if (candidate / "dynamics.json").exists() and (candidate / "unet").is_dir():
+            return candidate
+    steps = sorted((folder / "checkpoints").glob("step-*")) if (folder / "checkpoints").is_dir() else []
+    hint = f"; training has not finished: use encoder.checkpoint={steps[-1]} or re-run xicm-train-dynamics" if steps else ""
+    raise ConfigError(
+        f"no trained dynamics model at {folder}{hint or '; train one with xicm-train-dynamics (e.g. xicm-train-dynamics pool=seen)'}"
+    )
+
+
+def _load(folder: Path, device: str):
+    from xicm.plugins.dynamics.model import load_unet
+
+    with _lock:
+        key = (str(folder.resolve()), device)
+        if key not in _models:
+            _models[key] = load_unet(folder, device)
+        return _models[key]
+
+
+class DynamicsEncoder(Encoder):
+    uses_images = True
+
+    def __init__(
+        self,
+        checkpoint: str,
+        mode: str = "predicted_frame",
+        visual: str = "final",
+        steps: int = 10,
+        seed: int = 0,
+        text_weight: float = 0.5,
+        batch_size: int = 64,
+        device: str = "cpu",
+    ):
+        if mode not in MODES:
+            raise ConfigError(f"dynamics encoder: unknown mode '{mode}'; choose one of {', '.join(MODES)}")
+        if visual not in VISUALS:
+            raise ConfigError(f"dynamics encoder: unknown visual '{visual}'; choose one of {', '.join(VISUALS)}")
+        if not 0.0 <= float(text_weight) <= 1.0:
+            raise ConfigError(f"dynamics encoder: text_weight must be in [0, 1], got {text_weight}")
+        if int(steps) < 1 or int(batch_size) < 1:
+            raise ConfigError("dynamics encoder: steps and batch_size must be >= 1")
+        from xicm.plugins.dynamics.model import checkpoint_hash, read_meta
+
+        self.folder = resolve_checkpoint(checkpoint)
+        self.meta = read_meta(self.folder)
+        self.mode, self.visual = mode, visual
+        self.steps, self.seed = int(steps), int(seed)
+        self.text_weight = float(text_weight)
+        self.batch_size, self.device = int(batch_size), str(device)
+        self._hash = checkpoint_hash(self.folder)
+
+    def cache_key(self) -> str:
+        how = f"{self.mode}-{self.visual}-s{self.steps}" if self.mode == "predicted_frame" else self.mode
+        return f"dynamics:{how}:seed{self.seed}:tw{self.text_weight:g}:{self._hash[:16]}"
+
+    def encode(self, items: list[tuple[np.ndarray | None, str]]) -> np.ndarray:
+        if any(rgb is None for rgb, _ in items):
+            raise ConfigError("the dynamics encoder needs front-camera frames; the pool or query has none")
+        if not items:
+            return np.zeros((0, 0), np.float32)
+        visual = self._visual([rgb for rgb, _ in items], [str(t) for _, t in items])
+        from xicm.plugins.dynamics.text import text_encoder
+
+        _ctx, text = text_encoder(self.meta.get("text_encoder"), self.device).encode([str(t) for _, t in items])
+        return np.concatenate(
+            [_unit(visual) * np.sqrt(1.0 - self.text_weight), _unit(text) * np.sqrt(self.text_weight)], axis=1
+        ).astype(np.float32)
+
+    def _visual(self, frames: list[np.ndarray], texts: list[str]) -> np.ndarray:
+        import torch
+
+        from xicm.plugins.dynamics import model as dm
+        from xicm.plugins.dynamics.images import to_model
+        from xicm.plugins.dynamics.text import embed_unique, text_encoder
+
+        unet = _load(self.folder, self.device)
+        res = int(self.meta["resolution"])
+        context, _ = embed_unique(text_encoder(self.meta.get("text_encoder"), self.device), texts)
+        out = []
+        for i in range(0, len(frames), self.batch_size):
+            first = to_model(frames[i : i + self.batch_size], res)
+            ctx = context[i : i + self.batch_size]
+            if self.mode == "unet_features":
+                timestep = int(self.meta["num_train_timesteps"]) - 1
+                feat = dm.pooled_activations(unet, first, ctx, timestep, seed=self.seed)
+            else:
+                scheduler = _scheduler_config(self.folder)
+                last = dm.predict_last(unet, scheduler, self.meta, first, ctx, self.steps, self.seed)
+                feat = (last - first if self.visual == "change" else last).flatten(1)
+            out.append(feat.to(torch.float32).numpy())
+        return np.concatenate(out)
+
+
+def _scheduler_config(folder: Path) -> dict:
+    import json
+
+    return json.loads((folder / "scheduler" / "scheduler_config.json").read_text(encoding="utf-8"))
+
+
+def _unit(x: np.ndarray) -> np.ndarray:
+    x = np.asarray(x, np.float64).reshape(len(x), -1)
+    return x / np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-12)
+
+
+@hookimpl
+def register_encoders(register):
+    register("dynamics", DynamicsEncoder)

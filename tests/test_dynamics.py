@@ -1,0 +1,180 @@
+"""The dynamics model, its training job and the dynamics encoder/retriever, on a tiny
+synthetic pool and a tiny model (seconds)."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_module
+
+pytest.importorskip("diffusers")
+import torch  # noqa: E402
+
+from dynamics_fixtures import TASKS, frame, write_pool  # noqa: E402
+from xicm.core.dataset import load_pool  # noqa: E402
+from xicm.core.errors import ConfigError  # noqa: E402
+from xicm.core.types import Query  # noqa: E402
+from xicm.plugins.dynamics.train import run_training  # noqa: E402
+from xicm.plugins.encoders.dynamics import DynamicsEncoder, resolve_checkpoint  # noqa: E402
+from xicm.plugins.retrievers.dynamics import DynamicsRetriever  # noqa: E402
+
+
+def _cfg(pool, out, *extra):
+    overrides = [
+        f"pool_path={pool}",
+        f"out_dir={out}",
+        "dynamics_model=tiny",
+        "train.batch_size=8",
+        "train.lr=2e-3",
+        "train.warmup_steps=5",
+        "train.log_every=1",
+        "train.heldout_every=6",
+        "train.threads=1",
+        "evaluation.sample_steps=4",
+        "evaluation.num_images=2",
+        "tracking.mode=disabled",
+        "progress=false",
+        *extra,
+    ]
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        return compose("train_dynamics", overrides=overrides)
+
+
+@pytest.fixture(scope="module")
+def pool(tmp_path_factory):
+    return write_pool(tmp_path_factory.mktemp("dyn") / "tiny.h5")
+
+
+@pytest.fixture(scope="module")
+def trained(pool, tmp_path_factory):
+    out = tmp_path_factory.mktemp("model")
+    summary = run_training(_cfg(pool, out, "train.steps=80", "train.checkpoint_every=40"))
+    return out, summary
+
+
+def test_the_training_loss_goes_down(trained):
+    out, _ = trained
+    losses = [float(r["loss"]) for r in csv.DictReader(open(out / "train_log.csv"))]
+    assert len(losses) == 80
+    assert np.mean(losses[-15:]) < 0.7 * np.mean(losses[:15])
+
+
+def test_training_writes_a_diffusers_checkpoint_quality_figures_and_a_picture(trained):
+    out, summary = trained
+    from diffusers import UNet2DConditionModel
+
+    unet = UNet2DConditionModel.from_pretrained(out / "final" / "unet")
+    assert unet.config.in_channels == 6 and unet.config.sample_size == 16
+    assert (out / "final" / "scheduler" / "scheduler_config.json").exists()
+    figures = json.loads((out / "heldout.json").read_text())
+    assert figures["heldout_demos"] == 2  # episode 5 of each task (heldout_every=6)
+    for key in ("mse_predicted", "mse_copy_first", "ssim_predicted", "ssim_copy_first"):
+        assert np.isfinite(figures[key])
+    assert figures["mse_copy_first"] > 0  # the square moves
+    assert (out / "heldout.png").stat().st_size > 1000
+    assert summary["step"] == 80
+    assert [p.name for p in sorted((out / "checkpoints").iterdir())] == ["step-000040", "step-000080"]
+
+
+def test_a_resumed_training_ends_with_the_weights_of_an_uninterrupted_one(pool, tmp_path):
+    whole, parts = tmp_path / "whole", tmp_path / "parts"
+    run_training(_cfg(pool, whole, "train.steps=8", "train.checkpoint_every=4", "train.heldout_every=0"))
+    run_training(_cfg(pool, parts, "train.steps=4", "train.checkpoint_every=4", "train.heldout_every=0"))
+    summary = run_training(_cfg(pool, parts, "train.steps=8", "train.checkpoint_every=4", "train.heldout_every=0"))
+    assert summary["step"] == 8
+    from safetensors.torch import load_file
+
+    wa = load_file(whole / "final" / "unet" / "diffusion_pytorch_model.safetensors")
+    wb = load_file(parts / "final" / "unet" / "diffusion_pytorch_model.safetensors")
+    assert wa.keys() == wb.keys() and all(torch.equal(wa[k], wb[k]) for k in wa)
+
+
+def test_resuming_with_another_model_is_refused(pool, tmp_path):
+    run_training(_cfg(pool, tmp_path, "train.steps=2", "train.checkpoint_every=2", "train.heldout_every=0"))
+    with pytest.raises(ConfigError, match="different training setup"):
+        run_training(_cfg(pool, tmp_path, "train.steps=4", "dynamics_model.block_out_channels=[8,8]", "train.heldout_every=0"))
+
+
+def test_features_are_deterministic_and_depend_on_seed_and_text(trained):
+    out, _ = trained
+    img = frame(TASKS["slide_left"][1], 10, 4)
+    items = [(img, TASKS["slide_left"][0]), (img, "push the red block forward")]
+    a = DynamicsEncoder(str(out), steps=3).encode(items)
+    b = DynamicsEncoder(str(out), steps=3).encode(items)
+    assert a.shape == (2, 3 * 16 * 16 + 384) and np.array_equal(a, b)
+    assert not np.allclose(a[0], a[1])  # same frame, other instruction
+    assert not np.allclose(a, DynamicsEncoder(str(out), steps=3, seed=1).encode(items))
+    assert np.allclose(np.linalg.norm(a, axis=1), 1.0, atol=1e-5)
+    one_pass = DynamicsEncoder(str(out), mode="unet_features").encode(items)
+    assert np.array_equal(one_pass, DynamicsEncoder(str(out), mode="unet_features").encode(items))
+    assert not np.allclose(one_pass[0], one_pass[1])
+
+
+def test_the_feature_cache_is_reused_and_invalidated_when_the_checkpoint_changes(pool, tmp_path):
+    out = tmp_path / "model"
+    run_training(_cfg(pool, out, "train.steps=2", "train.checkpoint_every=2", "train.heldout_every=0"))
+    demos = load_pool(pool)
+    first = DynamicsRetriever(DynamicsEncoder(str(out), steps=2), cache_dir=str(tmp_path / "cache"))
+    first.prepare(demos)
+    again = DynamicsRetriever(DynamicsEncoder(str(out), steps=2), cache_dir=str(tmp_path / "cache"))
+    again.prepare(demos)
+    assert (first.cache_hit, again.cache_hit) == (False, True) and again.cache_path == first.cache_path
+
+    run_training(_cfg(pool, out, "train.steps=4", "train.checkpoint_every=2", "train.heldout_every=0"))
+    retrained = DynamicsRetriever(DynamicsEncoder(str(out), steps=2), cache_dir=str(tmp_path / "cache"))
+    retrained.prepare(demos)
+    assert retrained.cache_hit is False and retrained.cache_path != first.cache_path
+
+
+def test_retrieval_returns_k_distinct_demos_best_first(trained, pool, tmp_path):
+    out, _ = trained
+    demos = load_pool(pool)
+    retriever = DynamicsRetriever(DynamicsEncoder(str(out), steps=3), cache_dir=str(tmp_path))
+    retriever.prepare(demos)
+    text, colour, start, _ = TASKS["slide_right"]
+    query = Query(task="slide_right", instruction=text, objects={}, front_rgb=frame(colour, start, 6))
+    chosen = retriever.select(query, demos, 5, np.random.default_rng(0))
+    scores = [s for _, s in chosen]
+    assert len({d.demo_id for d, _ in chosen}) == 5
+    assert scores == sorted(scores, reverse=True)
+    others = DynamicsRetriever(DynamicsEncoder(str(out), steps=3), cache_dir=str(tmp_path), exclude_same_task=True)
+    assert all(d.task == "slide_left" for d, _ in others.select(query, demos, 3, np.random.default_rng(0)))
+
+
+def test_missing_models_and_bad_options_say_what_to_do(tmp_path, pool):
+    with pytest.raises(ConfigError, match="xicm-train-dynamics"):
+        resolve_checkpoint(tmp_path)
+    run_training(_cfg(pool, tmp_path / "m", "train.steps=2", "train.checkpoint_every=2", "train.heldout_every=0"))
+    import shutil
+
+    shutil.rmtree(tmp_path / "m" / "final")
+    with pytest.raises(ConfigError, match="step-000002"):
+        resolve_checkpoint(tmp_path / "m")
+    with pytest.raises(ConfigError, match="predicted_frame"):
+        DynamicsEncoder(str(tmp_path / "m" / "checkpoints" / "step-000002"), mode="pixels")
+    from xicm.plugins.encoders.minilm import MiniLMEncoder
+
+    with pytest.raises(ConfigError, match="encoder=dynamics"):
+        DynamicsRetriever(MiniLMEncoder())
+
+
+def test_a_transformers_text_encoder_from_a_local_folder(tmp_path):
+    """The `transformers` text kind (e.g. SD-2's CLIP text encoder), with a tiny random BERT."""
+    from transformers import BertConfig, BertModel, BertTokenizer
+
+    from xicm.plugins.dynamics.text import text_encoder
+
+    words = ["[PAD]", "[UNK]", "[CLS]", "[SEP]", "[MASK]", "open", "close", "the", "drawer", "jar"]
+    (tmp_path / "vocab.txt").write_text("\n".join(words) + "\n")
+    BertTokenizer(str(tmp_path / "vocab.txt")).save_pretrained(tmp_path)
+    torch.manual_seed(0)
+    BertModel(BertConfig(vocab_size=len(words), hidden_size=32, num_hidden_layers=1, num_attention_heads=2, intermediate_size=64)).save_pretrained(tmp_path)
+    enc = text_encoder({"kind": "transformers", "path": str(tmp_path), "max_length": 12})
+    context, feats = enc.encode(["open the drawer", "close the jar"])
+    assert context.shape == (2, 12, 32) and feats.shape == (2, 32)
+    assert not np.allclose(feats[0], feats[1])
+    with pytest.raises(ConfigError, match="kind"):
+        text_encoder({"kind": "clip-magic"})
