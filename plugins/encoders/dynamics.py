@@ -123,7 +123,12 @@ class DynamicsEncoder(Encoder):
         res = int(self.meta["resolution"])
         context, _ = embed_unique(text_encoder(self.meta.get("text_encoder"), self.device), texts)
         out = []
-        for i in range(0, len(frames), self.batch_size):
+        starts = range(0, len(frames), self.batch_size)
+        if len(starts) > 1:  # a pool: show progress on a terminal (tqdm stays quiet otherwise)
+            from tqdm import tqdm
+
+            starts = tqdm(starts, desc=f"dynamics features ({len(frames)} frames)", unit="batch", disable=None)
+        for i in starts:
             first = to_model(frames[i : i + self.batch_size], res)
             ctx = context[i : i + self.batch_size]
             if self.mode == "unet_features":

@@ -50,6 +50,26 @@ trust_remote_code (False)
     Let transformers run the model folder's own Python code (models not built into transformers,
     e.g. InternLM3). Only for weights whose source you trust.
 
+Speed (``fast: true`` by default; ``fast: false`` is plain ``model.generate`` on the whole
+prompt with the stop strings above, the reference the fast path is compared with):
+stop_at_action_list (True)
+    End the reply once its action list is closed (`xicm.plugins.llms.stopping.action_list_end`:
+    the first nested ``[[...], ...]`` holding a 7-integer group); the text is cut there. The
+    text up to there is plain generate's; only what the model would have written after it on
+    the same line is not generated.
+prefix_cache (True)
+    Keep the key/value states of the previous prompt and reuse those of the longest common
+    token prefix (system message and demos), so only the new suffix is run through the model
+    (`xicm.plugins.llms.prefix_cache`). Works with sliding-window layers (Gemma 3).
+draft_tokens (16)
+    Greedy decoding checks up to this many tokens guessed from the context per forward pass
+    and keeps those the model itself would pick (`xicm.plugins.llms.fast_decode`); 0 decodes
+    one token per pass. Used only for greedy decoding without logits processors; sampling
+    goes through ``generate`` (with the prefix cache and the action-list stop).
+Greedy replies of the fast path are the plain ones (tests and benchmarks/bench_llm_stage.py
+compare them on the embedded model). `complete_batch(prompts)` answers several prompts in one
+left-padded ``generate`` call (`xicm.plugins.llms.batch_generate`).
+
 identity() is a JSON string of the model and every setting that changes the reply.
 """
 
@@ -66,8 +86,9 @@ from xicm.core.errors import ConfigError, LLMError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import LLM
 from xicm.core.types import Prompt
-from xicm.plugins.llms import model_files
+from xicm.plugins.llms import model_files, stopping
 from xicm.plugins.llms.options import check_options, to_plain
+from xicm.plugins.llms.prefix_cache import PrefixCache
 from xicm.plugins.llms.rendering import fold_system, render_plain, render_raw
 
 CHAT_TEMPLATE_MODES = ("auto", "tokenizer", "plain", "raw")
@@ -95,6 +116,10 @@ class TransformersLocalLLM(LLM):
         device: str = "auto",
         torch_threads: int | None = None,
         trust_remote_code: bool = False,
+        fast: bool = True,
+        stop_at_action_list: bool = True,
+        prefix_cache: bool = True,
+        draft_tokens: int = 16,
     ):
         if chat_template not in CHAT_TEMPLATE_MODES and not ("{{" in chat_template or "{%" in chat_template):
             raise ConfigError(
@@ -105,6 +130,8 @@ class TransformersLocalLLM(LLM):
             raise ConfigError(f"llm.prompt_overflow '{prompt_overflow}' is unknown; available: {', '.join(OVERFLOW_MODES)}")
         if int(max_new_tokens) < 1:
             raise ConfigError(f"llm.max_new_tokens must be at least 1, got {max_new_tokens}")
+        if int(draft_tokens) < 0:
+            raise ConfigError(f"llm.draft_tokens must be 0 (off) or more, got {draft_tokens}")
         self.model_option = str(model)
         self.cache_dir = cache_dir
         self.max_new_tokens = int(max_new_tokens)
@@ -126,10 +153,17 @@ class TransformersLocalLLM(LLM):
         self.device_option = str(device)
         self.torch_threads = None if torch_threads is None else int(torch_threads)
         self.trust_remote_code = bool(trust_remote_code)
+        self.fast = bool(fast)
+        self.stop_at_action_list = self.fast and bool(stop_at_action_list)
+        self.use_prefix_cache = self.fast and bool(prefix_cache)
+        self.draft_tokens = int(draft_tokens) if self.fast else 0
+        self.prefix_cache = PrefixCache()
+        self.last_call: dict[str, float] = {}  # fast path: reused_tokens, prefill_s, decode_s, new_tokens
         self.source, self.gguf_file, self.model_label = self._resolve(self.model_option)
         self._model = None
         self._tokenizer = None
         self._template_used: str | None = None  # 'tokenizer', 'custom', 'plain' or 'raw' once loaded
+        self._cache_supported = False  # whether the fast path can run on the loaded model
         self.load_seconds: float | None = None
 
     # -------------------------------------------------------------- resolution
@@ -199,6 +233,7 @@ class TransformersLocalLLM(LLM):
         self._tokenizer = tokenizer
         self._model = model
         self._template_used = self._choose_template(tokenizer)
+        self._cache_supported = PrefixCache.supported(model)
         self.load_seconds = time.perf_counter() - t0
 
     @property
@@ -311,27 +346,81 @@ class TransformersLocalLLM(LLM):
         return kwargs
 
     def generate_ids(self, ids: list[int]) -> list[int]:
+        """New token ids for the prompt ids (the fast path unless ``fast: false``)."""
+        self.load()
+        if self.fast and len(ids) >= 2 and self._cache_supported:
+            return self._generate_fast(ids)
+        return self._generate_plain(ids)
+
+    def _generate_plain(self, ids: list[int]) -> list[int]:
         import torch
 
-        self.load()
         input_ids = torch.tensor([ids], dtype=torch.long, device=self.device)
-        pad = self._tokenizer.pad_token_id
-        if pad is None:
-            pad = self._tokenizer.eos_token_id
         if self.do_sample:
             torch.manual_seed(self.seed)
         extra: dict[str, Any] = {}
         if self.stop_strings:
             extra = {"stop_strings": self.stop_strings, "tokenizer": self._tokenizer}
+        if self.stop_at_action_list:  # the fast path on a model whose cache it cannot reuse
+            from transformers import StoppingCriteriaList
+
+            criteria = stopping.batch_stopping_criteria(self._decode, len(ids), [], True)
+            extra["stopping_criteria"] = StoppingCriteriaList([criteria])
         with torch.inference_mode():
             out = self._model.generate(
                 input_ids=input_ids,
                 attention_mask=torch.ones_like(input_ids),
-                pad_token_id=pad,
+                pad_token_id=self._pad_id(),
                 **self.generation_kwargs(),
                 **extra,
             )
         return out[0, input_ids.shape[1]:].tolist()
+
+    def _generate_fast(self, ids: list[int]) -> list[int]:
+        """Prefix-cached prefill, then the draft-checking greedy loop (or generate when sampling)."""
+        import torch
+        from xicm.plugins.llms.fast_decode import greedy_decode, plain_greedy
+
+        t0 = time.perf_counter()
+        store = self.prefix_cache if self.use_prefix_cache else PrefixCache()
+        cache = store.prepare(self._model, ids)
+        self.last_call = {"reused_tokens": store.reused_tokens, "prefill_s": time.perf_counter() - t0}
+        kwargs = self.generation_kwargs()
+        if plain_greedy(self._model.generation_config, kwargs):
+            eos = self._model.generation_config.eos_token_id
+            eos = [] if eos is None else [eos] if isinstance(eos, int) else list(eos)
+            t0 = time.perf_counter()
+            new_ids = greedy_decode(
+                self._model, cache, ids, self.max_new_tokens, eos, self._tokens_until_end, self.draft_tokens
+            )
+            self.last_call.update(decode_s=time.perf_counter() - t0, new_tokens=len(new_ids))
+            return new_ids
+        from transformers import StoppingCriteriaList
+
+        input_ids = torch.tensor([ids], dtype=torch.long, device=self.device)
+        criteria = stopping.batch_stopping_criteria(
+            self._decode, len(ids), self.stop_strings, self.stop_at_action_list
+        )
+        if self.do_sample:
+            torch.manual_seed(self.seed)
+        with torch.inference_mode():
+            out = self._model.generate(
+                input_ids=input_ids, attention_mask=torch.ones_like(input_ids), past_key_values=cache,
+                pad_token_id=self._pad_id(), stopping_criteria=StoppingCriteriaList([criteria]), **kwargs,
+            )
+        return out[0, len(ids):].tolist()
+
+    def _decode(self, new_ids: list[int]) -> str:
+        return self._tokenizer.decode(new_ids, skip_special_tokens=True)
+
+    def _tokens_until_end(self, new_ids: list[int], checked: int) -> int | None:
+        return stopping.tokens_until_end(
+            self._decode, new_ids, checked, self.stop_strings, self.stop_at_action_list
+        )
+
+    def _pad_id(self) -> int:
+        pad = self._tokenizer.pad_token_id
+        return self._tokenizer.eos_token_id if pad is None else pad
 
     def complete(self, prompt: Prompt) -> str:
         return self.complete_messages(prompt.messages)
@@ -340,12 +429,33 @@ class TransformersLocalLLM(LLM):
         """Reply to raw chat messages (complete() without a Prompt object)."""
         ids = self._fit(self.encode(messages))
         new_ids = self.generate_ids(ids)
-        return self.cut_at_stop(self._tokenizer.decode(new_ids, skip_special_tokens=True))
+        return self.reply_text(self._decode(new_ids))
+
+    def complete_batch(self, prompts: list[Prompt]) -> list[str]:
+        """Replies to several prompts from one left-padded generate call (no prefix cache; greedy
+        replies equal complete()'s up to rounding, sampled ones differ)."""
+        from xicm.plugins.llms.batch_generate import generate_batch
+
+        self.load()
+        id_lists = [self._fit(self.encode(p.messages)) for p in prompts]
+        if self.do_sample:
+            import torch
+
+            torch.manual_seed(self.seed)
+        rows = generate_batch(
+            self._model, id_lists, self._pad_id(), self._decode, self.stop_strings,
+            self.stop_at_action_list, self.generation_kwargs(),
+        )
+        return [self.reply_text(self._decode(row)) for row in rows]
+
+    def reply_text(self, text: str) -> str:
+        """The decoded new text cut at the first stop string (and after the action list when
+        stop_at_action_list is on)."""
+        return stopping.final_text(text, self.stop_strings, self.stop_at_action_list)
 
     def cut_at_stop(self, text: str) -> str:
         """Text up to the first stop string (a reply that starts with one keeps its first line)."""
-        cuts = [i for i in (text.find(s, 1 if s.startswith("\n") else 0) for s in self.stop_strings) if i >= 0]
-        return text[: min(cuts)] if cuts else text
+        return stopping.cut_at_stop(text, self.stop_strings)
 
     def identity(self) -> str:
         settings: dict[str, Any] = {
@@ -361,6 +471,8 @@ class TransformersLocalLLM(LLM):
             "prompt_overflow": self.prompt_overflow,
             "do_sample": self.do_sample,
         }
+        if self.stop_at_action_list:  # the only speed option that can change a reply (it cuts it)
+            settings["stop_at_action_list"] = True
         if self.do_sample:
             settings.update(
                 temperature=self.temperature, top_p=self.top_p, repetition_penalty=self.repetition_penalty, seed=self.seed
