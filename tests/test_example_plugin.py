@@ -33,7 +33,7 @@ def test_xicm_plugins_lists_the_installed_plugin_with_its_version(installed):
     out = subprocess.run([str(BIN / "xicm-plugins")], capture_output=True, text=True, env=installed, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
     assert "object_overlap 0.1.0: register_retrievers" in out.stdout
-    assert "retriever: object_overlap, random, similarity" in out.stdout
+    assert "retriever: dynamics, object_overlap, random, similarity" in out.stdout
 
 
 def test_an_episode_runs_with_the_plugin_selected_from_the_command_line(installed, smoke_pool, tmp_path):
