@@ -126,6 +126,7 @@ def run_training(cfg: DictConfig) -> dict[str, Any]:
         summary = {"step": step, "train_seconds": round(seconds, 1), "final": str(out / "final"), **quality}
         (out / "heldout.json").write_text(json.dumps(summary, indent=2), encoding="utf-8")
         tracker.summary({f"heldout/{k}": v for k, v in quality.items() if isinstance(v, (int, float))})
+        tracker.log_images([out / "heldout.png"] if (out / "heldout.png").exists() else [])
     finally:
         note = tracker.finish()
         if note:
