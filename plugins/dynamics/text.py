@@ -14,6 +14,7 @@ Two kinds, chosen by the `text_encoder` config (stored in each checkpoint's dyna
 from __future__ import annotations
 
 import threading
+from abc import ABC, abstractmethod
 from typing import Any
 
 import numpy as np
@@ -26,13 +27,13 @@ _cache: dict[str, "TextEncoder"] = {}
 _lock = threading.Lock()
 
 
-class TextEncoder:
+class TextEncoder(ABC):
     key: str = ""
     dim: int = 0
 
+    @abstractmethod
     def encode(self, texts: list[str]) -> tuple[torch.Tensor, np.ndarray]:
         """(context (N, L, dim) float32, text feature (N, dim) L2-normalised)."""
-        raise NotImplementedError
 
 
 class MiniLMText(TextEncoder):

@@ -94,6 +94,7 @@ class DynamicsEncoder(Encoder):
         self.text_weight = float(text_weight)
         self.batch_size, self.device = int(batch_size), str(device)
         self._hash = checkpoint_hash(self.folder)
+        self._scheduler = _scheduler_config(self.folder)  # read once: queries come one per episode
 
     def cache_key(self) -> str:
         how = f"{self.mode}-{self.visual}-s{self.steps}" if self.mode == "predicted_frame" else self.mode
@@ -108,8 +109,10 @@ class DynamicsEncoder(Encoder):
         from xicm.plugins.dynamics.text import text_encoder
 
         _ctx, text = text_encoder(self.meta.get("text_encoder"), self.device).encode([str(t) for _, t in items])
+        from xicm.plugins.retrievers.similarity import normalise_rows
+
         return np.concatenate(
-            [_unit(visual) * np.sqrt(1.0 - self.text_weight), _unit(text) * np.sqrt(self.text_weight)], axis=1
+            [normalise_rows(visual) * np.sqrt(1.0 - self.text_weight), normalise_rows(text) * np.sqrt(self.text_weight)], axis=1
         ).astype(np.float32)
 
     def _visual(self, frames: list[np.ndarray], texts: list[str]) -> np.ndarray:
@@ -135,8 +138,7 @@ class DynamicsEncoder(Encoder):
                 timestep = int(self.meta["num_train_timesteps"]) - 1
                 feat = dm.pooled_activations(unet, first, ctx, timestep, seed=self.seed)
             else:
-                scheduler = _scheduler_config(self.folder)
-                last = dm.predict_last(unet, scheduler, self.meta, first, ctx, self.steps, self.seed)
+                last = dm.predict_last(unet, self._scheduler, self.meta, first, ctx, self.steps, self.seed)
                 feat = (last - first if self.visual == "change" else last).flatten(1)
             out.append(feat.to(torch.float32).numpy())
         return np.concatenate(out)
@@ -146,11 +148,6 @@ def _scheduler_config(folder: Path) -> dict:
     import json
 
     return json.loads((folder / "scheduler" / "scheduler_config.json").read_text(encoding="utf-8"))
-
-
-def _unit(x: np.ndarray) -> np.ndarray:
-    x = np.asarray(x, np.float64).reshape(len(x), -1)
-    return x / np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-12)
 
 
 @hookimpl

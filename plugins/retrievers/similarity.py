@@ -53,7 +53,8 @@ def pool_fingerprint(encoder_key: str, pool: list[Demo], with_images: bool = Fal
     return h.hexdigest()
 
 
-def _normalise(x: np.ndarray) -> np.ndarray:
+def normalise_rows(x: np.ndarray) -> np.ndarray:
+    """Rows flattened and L2-normalised (float32), so a dot product is the cosine."""
     x = np.asarray(x, dtype=np.float32)
     if x.ndim == 1:
         x = x[None]
@@ -105,7 +106,7 @@ class SimilarityRetriever(Retriever):
                 feats = None
         self.cache_hit = feats is not None
         if feats is None:
-            feats = _normalise(self.encoder.encode([(d.first_rgb, d.instruction) for d in pool]))
+            feats = normalise_rows(self.encoder.encode([(d.first_rgb, d.instruction) for d in pool]))
             if len(feats) != len(pool):
                 raise RuntimeError(f"encoder returned {len(feats)} features for {len(pool)} demos")
             save_npy_atomic(path, feats)
@@ -115,7 +116,7 @@ class SimilarityRetriever(Retriever):
 
     def scores(self, query: Query, demos: list[Demo]) -> np.ndarray:
         """Cosine similarity of the query to each demo (demos must have been prepared)."""
-        q = _normalise(self.encoder.encode([(query.front_rgb, query.instruction)]))[0]
+        q = normalise_rows(self.encoder.encode([(query.front_rgb, query.instruction)]))[0]
         rows = np.fromiter((self._rows[d.demo_id] for d in demos), dtype=np.int64, count=len(demos))
         return self._features[rows] @ q
 
