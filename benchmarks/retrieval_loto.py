@@ -4,7 +4,13 @@ demos retrieved for its queries come from, under several retrievers.
 The queries are the pool's held-out demos of the dynamics model (episode % heldout_every ==
 heldout_every - 1; the model never trained on them, though it trained on other demos of the
 same task). Demos of the query's own task are excluded (`exclude_same_task`), as they would be
-for an unseen task. Also prints seconds per query feature for each retriever.
+for an unseen task. Also prints seconds per query feature for each retriever, and two measures
+of how alike the retrieved demos' *real* dynamics are to the query's (means over queries and
+retrieved demos; random is the floor):
+- gripper pattern match: % of retrieved demos whose key actions open/close the gripper in the
+  same sequence as the query's own demo (what the LLM copies from its examples);
+- change cosine: cosine between the real change images (last minus first front frame, 32×32)
+  of the query and a retrieved demo.
 
     python benchmarks/retrieval_loto.py                     # data/pools/seen.h5, data/dynamics/seen
     python benchmarks/retrieval_loto.py --k 18 --json out.json --retrievers dynamics,language,random
@@ -23,33 +29,51 @@ import numpy as np
 
 from xicm.core.dataset import load_pool
 from xicm.core.plugins import get_registry
-from xicm.core.types import Query
+from xicm.core.types import Demo, Query
+from xicm.plugins.dynamics.images import to_model
 
-ENCODER = {"dynamics": "dynamics", "dynamics_onepass": "dynamics", "language": "minilm", "random": None}
-RETRIEVER = {"dynamics": "dynamics", "dynamics_onepass": "dynamics", "language": "similarity", "random": "random"}
+# retriever name -> dynamics encoder options (None: not a dynamics retriever)
+DYNAMICS = {
+    "dynamics": {"mode": "predicted_frame", "visual": "final"},
+    "dynamics_change": {"mode": "predicted_frame", "visual": "change"},
+    "dynamics_onepass": {"mode": "unet_features"},
+}
 
 
-def build(name: str, checkpoint: str, cache_dir: str, steps: int):
+def build(name: str, checkpoint: str, cache_dir: str, steps: int, text_weight: float):
     registry = get_registry()
-    encoder = None
-    if ENCODER[name] == "dynamics":
-        mode = "unet_features" if name == "dynamics_onepass" else "predicted_frame"
-        encoder = registry.create("encoder", {"name": "dynamics", "checkpoint": checkpoint, "mode": mode, "steps": steps})
-    elif ENCODER[name]:
-        encoder = registry.create("encoder", {"name": ENCODER[name]})
-    options = {"name": RETRIEVER[name], "exclude_same_task": True}
-    if name != "random":
-        options["cache_dir"] = cache_dir
-    return registry.create("retriever", options, encoder=encoder)
+    options: dict = {"exclude_same_task": True, "cache_dir": cache_dir}
+    if name in DYNAMICS:
+        spec = {"name": "dynamics", "checkpoint": checkpoint, "steps": steps, "text_weight": text_weight, **DYNAMICS[name]}
+        return registry.create("retriever", {"name": "dynamics", **options}, encoder=registry.create("encoder", spec))
+    if name == "language":
+        return registry.create("retriever", {"name": "similarity", **options}, encoder=registry.create("encoder", {"name": "minilm"}))
+    if name == "random":
+        return registry.create("retriever", {"name": "random", "exclude_same_task": True})
+    raise SystemExit(f"unknown retriever '{name}'; choose from {', '.join([*DYNAMICS, 'language', 'random'])}")
+
+
+def gripper_pattern(demo: Demo) -> tuple[bool, ...]:
+    return tuple(a.gripper_open for a in demo.key_actions)
+
+
+def real_changes(pool: list[Demo]) -> dict[str, np.ndarray]:
+    """demo id -> unit-length real change image (last - first frame at 32x32), flattened."""
+    first = to_model([d.first_rgb for d in pool], 32)
+    last = to_model([d.last_rgb for d in pool], 32)
+    change = (last - first).flatten(1).numpy()
+    change /= np.maximum(np.linalg.norm(change, axis=1, keepdims=True), 1e-8)
+    return {d.demo_id: change[i] for i, d in enumerate(pool)}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--pool", default="data/pools/seen.h5")
     ap.add_argument("--checkpoint", default="data/dynamics/seen")
-    ap.add_argument("--retrievers", default="dynamics,dynamics_onepass,language,random")
+    ap.add_argument("--retrievers", default="dynamics,dynamics_change,dynamics_onepass,language,random")
     ap.add_argument("--k", type=int, default=18)
     ap.add_argument("--steps", type=int, default=10, help="DDIM steps of the predicted-frame feature")
+    ap.add_argument("--text-weight", type=float, default=0.5, help="share of the text cosine in dynamics similarity")
     ap.add_argument("--heldout-every", type=int, default=20)
     ap.add_argument("--queries-per-task", type=int, default=3)
     ap.add_argument("--cache-dir", default=str(Path.home() / ".cache/xicm/features"))
@@ -64,14 +88,15 @@ def main() -> None:
         if len(per_task[d.task]) < args.queries_per_task:
             per_task[d.task].append(d)
     tasks = sorted(per_task)
+    changes = real_changes(pool)
     results: dict[str, dict] = {}
     for name in args.retrievers.split(","):
-        retriever = build(name, args.checkpoint, args.cache_dir, args.steps)
+        retriever = build(name, args.checkpoint, args.cache_dir, args.steps, args.text_weight)
         started = time.perf_counter()
         retriever.prepare(pool)
         prepare_s = time.perf_counter() - started
         rng = np.random.default_rng(0)
-        seconds, rows = [], {}
+        seconds, rows, pattern_match, change_cos = [], {}, [], []
         for task in tasks:
             counts: Counter = Counter()
             for demo in per_task[task]:
@@ -80,23 +105,30 @@ def main() -> None:
                 chosen = retriever.select(query, pool, args.k, rng)
                 seconds.append(time.perf_counter() - t0)
                 counts.update(d.task for d, _ in chosen)
+                pattern_match.append(np.mean([gripper_pattern(d) == gripper_pattern(demo) for d, _ in chosen]))
+                change_cos.append(np.mean([float(changes[d.demo_id] @ changes[demo.demo_id]) for d, _ in chosen]))
             total = sum(counts.values())
             rows[task] = {t: round(100.0 * c / total, 1) for t, c in counts.most_common()}
         results[name] = {
             "prepare_seconds": round(prepare_s, 2),
             "cache_hit": getattr(retriever, "cache_hit", None),
             "seconds_per_query_median": round(statistics.median(seconds), 4),
+            "gripper_pattern_match_percent": round(100.0 * float(np.mean(pattern_match)), 1),
+            "change_cosine": round(float(np.mean(change_cos)), 3),
             "sources": rows,
         }
         print(f"\n## {name}: pool features {prepare_s:.1f} s (cache hit: {results[name]['cache_hit']}), "
-              f"median {results[name]['seconds_per_query_median'] * 1000:.1f} ms per query (k={args.k})")
+              f"median {results[name]['seconds_per_query_median'] * 1000:.1f} ms per query (k={args.k}); "
+              f"gripper pattern match {results[name]['gripper_pattern_match_percent']:g} %, "
+              f"real change cosine {results[name]['change_cosine']:.3f}")
         print("| held-out task | top source tasks (% of retrieved demos) | distinct tasks |")
         print("|---|---|---|")
         for task in tasks:
             top = ", ".join(f"{t} {p:g}" for t, p in list(rows[task].items())[:3])
             print(f"| {task} | {top} | {len(rows[task])} |")
     if args.json:
-        Path(args.json).write_text(json.dumps({"k": args.k, "queries_per_task": args.queries_per_task, "results": results}, indent=2))
+        settings = {"k": args.k, "queries_per_task": args.queries_per_task, "steps": args.steps, "text_weight": args.text_weight}
+        Path(args.json).write_text(json.dumps({**settings, "results": results}, indent=2))
 
 
 if __name__ == "__main__":

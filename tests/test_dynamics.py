@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -33,7 +34,7 @@ def _cfg(pool, out, *extra):
         "train.log_every=1",
         "train.heldout_every=6",
         "train.threads=1",
-        "evaluation.sample_steps=4",
+        "evaluation.sample_steps=[1,4]",
         "evaluation.num_images=2",
         "tracking.mode=disabled",
         "progress=false",
@@ -71,12 +72,52 @@ def test_training_writes_a_diffusers_checkpoint_quality_figures_and_a_picture(tr
     assert (out / "final" / "scheduler" / "scheduler_config.json").exists()
     figures = json.loads((out / "heldout.json").read_text())
     assert figures["heldout_demos"] == 2  # episode 5 of each task (heldout_every=6)
-    for key in ("mse_predicted", "mse_copy_first", "ssim_predicted", "ssim_copy_first"):
+    assert sorted(figures["predicted"]) == ["1", "4"]
+    for key in ("mse_copy_first", "ssim_copy_first"):
         assert np.isfinite(figures[key])
+    for by_steps in figures["predicted"].values():
+        assert np.isfinite(by_steps["mse"]) and np.isfinite(by_steps["ssim"]) and by_steps["seconds_per_sample"] > 0
     assert figures["mse_copy_first"] > 0  # the square moves
     assert (out / "heldout.png").stat().st_size > 1000
     assert summary["step"] == 80
     assert [p.name for p in sorted((out / "checkpoints").iterdir())] == ["step-000040", "step-000080"]
+
+
+@pytest.mark.parametrize("prediction", ["epsilon", "sample"])  # v_prediction: the default, trained above
+def test_every_prediction_type_trains_and_is_recorded_in_the_checkpoint(pool, tmp_path, prediction):
+    run_training(_cfg(pool, tmp_path, "train.steps=60", "train.checkpoint_every=60", f"dynamics_model.prediction={prediction}"))
+    losses = [float(r["loss"]) for r in csv.DictReader(open(tmp_path / "train_log.csv"))]
+    assert np.mean(losses[-15:]) < 0.8 * np.mean(losses[:15])
+    config = json.loads((tmp_path / "final" / "scheduler" / "scheduler_config.json").read_text())
+    assert config["prediction_type"] == prediction
+    with pytest.raises(ConfigError, match="v_prediction"):
+        run_training(_cfg(pool, tmp_path / "bad", "train.steps=1", "dynamics_model.prediction=x0"))
+
+
+class _ConstantClean(torch.nn.Module):
+    """A stand-in UNet whose output is always the same clean target (prediction type `sample`)."""
+
+    def __init__(self, clean: torch.Tensor):
+        super().__init__()
+        self.clean = clean
+        self.unused = torch.nn.Parameter(torch.zeros(1))  # predict_last reads the device from a parameter
+
+    def forward(self, x, t, encoder_hidden_states):
+        return SimpleNamespace(sample=self.clean.expand(len(x), -1, -1, -1))
+
+
+def test_sampling_can_predict_changes_as_large_as_the_pixel_range():
+    """Regression: diffusers' default clipping of the clean estimate to [-1, 1] applied to the scaled
+    residual capped every predicted change at 1/target_scale of the pixel range."""
+    from xicm.plugins.dynamics import model as dm
+
+    meta = {"target": "residual", "target_scale": 11.0, "num_train_timesteps": 1000, "model": {"prediction": "sample"}}
+    config = dict(dm.train_scheduler(meta).config)
+    first = torch.full((2, 3, 4, 4), -0.5)
+    unet = _ConstantClean(dm.encode_target(torch.zeros(1, 3, 4, 4), torch.ones(1, 3, 4, 4), meta))
+    for scheduler_config in (config, {**config, "clip_sample_range": 1.0}):  # the latter: checkpoints saved before the fix
+        last = dm.predict_last(unet, scheduler_config, meta, first, torch.zeros(2, 1, 8), steps=4)
+        assert torch.allclose(last, torch.full_like(last, 0.5), atol=1e-4)
 
 
 def test_a_resumed_training_ends_with_the_weights_of_an_uninterrupted_one(pool, tmp_path):
@@ -178,3 +219,22 @@ def test_a_transformers_text_encoder_from_a_local_folder(tmp_path):
     assert not np.allclose(feats[0], feats[1])
     with pytest.raises(ConfigError, match="kind"):
         text_encoder({"kind": "clip-magic"})
+
+
+def test_the_leave_one_task_out_benchmark_reports_sources_and_agreement(trained, pool, tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    out, _ = trained
+    script = Path(__file__).resolve().parents[1] / "benchmarks" / "retrieval_loto.py"
+    report = tmp_path / "loto.json"
+    args = ["--pool", str(pool), "--checkpoint", str(out), "--k", "3", "--steps", "2", "--heldout-every", "6"]
+    args += ["--retrievers", "dynamics,dynamics_change,random", "--cache-dir", str(tmp_path / "cache"), "--json", str(report)]
+    subprocess.run([sys.executable, str(script), *args], check=True, capture_output=True, timeout=300)
+    results = json.loads(report.read_text())["results"]
+    for name in ("dynamics", "dynamics_change", "random"):
+        # own task excluded: every retrieved demo comes from the other task, whose square slides the other way
+        assert set(results[name]["sources"]["slide_left"]) == {"slide_right"}
+        assert results[name]["gripper_pattern_match_percent"] == 100.0  # one key action, gripper open, in both tasks
+        assert -1.0 <= results[name]["change_cosine"] <= 1.0

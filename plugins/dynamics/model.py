@@ -47,10 +47,37 @@ def build_unet(model: dict[str, Any], text_dim: int):
     )
 
 
-def train_scheduler(num_train_timesteps: int):
+def train_scheduler(meta: dict[str, Any]):
     from diffusers import DDPMScheduler
 
-    return DDPMScheduler(num_train_timesteps=int(num_train_timesteps), beta_schedule="squaredcos_cap_v2")
+    return DDPMScheduler(
+        num_train_timesteps=int(meta["num_train_timesteps"]),
+        beta_schedule="squaredcos_cap_v2",
+        prediction_type=prediction_type(meta),
+        **sample_clip(meta),
+    )
+
+
+PREDICTIONS = ("epsilon", "v_prediction", "sample")
+
+
+def prediction_type(meta: dict[str, Any]) -> str:
+    """What the UNet outputs: the added noise (epsilon), the velocity (v_prediction) or the clean
+    target itself (sample). Checkpoints from before this option predicted the noise."""
+    kind = str(meta["model"].get("prediction", "epsilon"))
+    if kind not in PREDICTIONS:
+        raise ConfigError(f"dynamics_model.prediction must be one of {', '.join(PREDICTIONS)}, got '{kind}'")
+    return kind
+
+
+def loss_target(scheduler, clean: torch.Tensor, noise: torch.Tensor, t: torch.Tensor) -> torch.Tensor:
+    """What the UNet's output is compared with in the training loss, per the scheduler's prediction type."""
+    kind = scheduler.config.prediction_type
+    if kind == "epsilon":
+        return noise
+    if kind == "v_prediction":
+        return scheduler.get_velocity(clean, noise, t)
+    return clean
 
 
 def save_checkpoint(folder: Path, unet, scheduler, meta: dict[str, Any]) -> None:
@@ -108,12 +135,34 @@ def decode_target(first: torch.Tensor, x: torch.Tensor, meta: dict[str, Any]) ->
     return last.clamp(-1, 1)
 
 
+def sample_clip(meta: dict[str, Any]) -> dict[str, Any]:
+    """The range the sampler clips its clean-target estimate to: the target's own range. A
+    residual scaled by s lies in [-2s, 2s]; clipping it to diffusers' default [-1, 1] would cap
+    every predicted change at 1/s of the pixel range (nothing in the picture could move)."""
+    if meta["target"] == "frame":
+        return {"clip_sample": True, "clip_sample_range": 1.0}
+    return {"clip_sample": True, "clip_sample_range": 2.0 * float(meta["target_scale"])}
+
+
+# Names predict_last's sampling procedure; feature caches key on it, so changing how a frame is
+# sampled from the same weights must change this.
+SAMPLER = "ddim-v2"
+
+
+def timestep_spacing(scheduler_config: dict[str, Any]) -> str:
+    """"trailing" (the first of few steps is the last training timestep, pure noise; one step is
+    the model's direct estimate of the target) for v- and sample-prediction. Noise-prediction
+    cannot estimate the target from pure noise (it divides by the signal level, ~0 there), so it
+    keeps diffusers' default "leading" (10 steps start at t = 900; one step would be t = 0)."""
+    return "leading" if scheduler_config.get("prediction_type", "epsilon") == "epsilon" else "trailing"
+
+
 @torch.no_grad()
 def predict_last(unet, scheduler_config: dict[str, Any], meta: dict[str, Any], first: torch.Tensor, context: torch.Tensor, steps: int, seed: int = 0) -> torch.Tensor:
     """Sample the predicted last frame (N, 3, r, r) with `steps` deterministic DDIM steps."""
     from diffusers import DDIMScheduler
 
-    scheduler = DDIMScheduler.from_config(scheduler_config)
+    scheduler = DDIMScheduler.from_config(scheduler_config, timestep_spacing=timestep_spacing(scheduler_config), **sample_clip(meta))
     scheduler.set_timesteps(int(steps))
     device = next(unet.parameters()).device
     first, context = first.to(device), context.to(device)

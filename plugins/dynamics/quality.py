@@ -28,19 +28,19 @@ def ssim(a: np.ndarray, b: np.ndarray, sigma: float = 1.5) -> np.ndarray:
     return np.asarray(out)
 
 
-def comparison_picture(path: Path, firsts: np.ndarray, predicted: np.ndarray, lasts: np.ndarray, titles: list[str]) -> None:
-    """One row per demo: first frame | predicted last frame | real last frame."""
+def comparison_picture(path: Path, columns: list[tuple[str, np.ndarray]], titles: list[str]) -> None:
+    """One row per demo, one column per (name, images) entry, e.g. first | predicted | real last."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    n = len(firsts)
-    fig, axes = plt.subplots(n, 3, figsize=(6, 2.1 * n), squeeze=False)
+    n, m = len(titles), len(columns)
+    fig, axes = plt.subplots(n, m, figsize=(2 * m, 2.1 * n), squeeze=False)
     for i in range(n):
-        for j, (img, name) in enumerate(((firsts[i], "first"), (predicted[i], "predicted last"), (lasts[i], "real last"))):
+        for j, (name, images) in enumerate(columns):
             ax = axes[i, j]
-            ax.imshow(img, interpolation="nearest")
+            ax.imshow(images[i], interpolation="nearest")
             ax.set_xticks([])
             ax.set_yticks([])
             if i == 0:

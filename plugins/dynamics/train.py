@@ -16,6 +16,7 @@ import json
 import os
 import shutil
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -102,7 +103,7 @@ def run_training(cfg: DictConfig) -> dict[str, Any]:
     }
     out = Path(cfg.out_dir)
     ckpt_root = out / "checkpoints"
-    scheduler = dm.train_scheduler(meta["num_train_timesteps"])
+    scheduler = dm.train_scheduler(meta)
     unet, opt, step, seconds = _start(meta, ckpt_root, text.dim, train_cfg)
     total = int(train_cfg.steps)
     tracker = Tracker(
@@ -119,13 +120,14 @@ def run_training(cfg: DictConfig) -> dict[str, Any]:
         f"step {step} -> {total}" + (" (resumed)" if step else "")
     )
     try:
-        step, seconds = _train_loop(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_root, step, total, seconds, tracker, bool(cfg.progress))
+        run = TrainingRun(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_root, tracker, bool(cfg.progress))
+        step, seconds = _train_loop(run, step, total, seconds)
         unet.eval()
         _write_dir_atomic(out / "final", lambda d: dm.save_checkpoint(d, unet, scheduler, {**meta, "step": step, "train_seconds": seconds}))
         quality = evaluate_heldout(unet, scheduler.config, meta, heldout, text, res, cfg.evaluation, out)
         summary = {"step": step, "train_seconds": round(seconds, 1), "final": str(out / "final"), **quality}
         (out / "heldout.json").write_text(json.dumps(summary, indent=2), encoding="utf-8")
-        tracker.summary({f"heldout/{k}": v for k, v in quality.items() if isinstance(v, (int, float))})
+        tracker.summary({f"heldout/{k}": v for k, v in flat_figures(quality).items()})
         tracker.log_images([out / "heldout.png"] if (out / "heldout.png").exists() else [])
     finally:
         note = tracker.finish()
@@ -185,30 +187,50 @@ class LossLog:
         self._f.close()
 
 
-def _train_loop(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_root, step, total, seconds, tracker, progress):
-    log = LossLog(ckpt_root.parent / "train_log.csv", step)
+@dataclass
+class TrainingRun:
+    """Everything a training loop step needs."""
+
+    unet: Any
+    opt: Any
+    scheduler: Any
+    first: torch.Tensor
+    last: torch.Tensor
+    context: torch.Tensor
+    meta: dict[str, Any]
+    cfg: Any  # the `train` config group
+    ckpt_root: Path
+    tracker: Tracker
+    progress: bool
+
+
+def _train_loop(run: TrainingRun, step: int, total: int, seconds: float) -> tuple[int, float]:
+    log = LossLog(run.ckpt_root.parent / "train_log.csv", step)
     try:
-        return _steps(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_root, step, total, seconds, tracker, progress, log)
+        return _steps(run, step, total, seconds, log)
     finally:
         log.close()
 
 
-def _steps(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_root, step, total, seconds, tracker, progress, log):
+def _steps(run: TrainingRun, step: int, total: int, seconds: float, log: LossLog) -> tuple[int, float]:
     bar = None
-    if progress:
+    if run.progress:
         from tqdm import tqdm
 
         bar = tqdm(total=total, initial=step, desc="train-dynamics", unit="step", dynamic_ncols=True)
+    meta, train_cfg, unet, opt = run.meta, run.cfg, run.unet, run.opt
     every = max(1, int(train_cfg.checkpoint_every))
     log_every = max(1, int(train_cfg.log_every))
-    shape = tuple(last.shape[1:])
+    shape = tuple(run.last.shape[1:])
     running = None
     started = time.perf_counter() - seconds
     while step < total:
-        idx, noise, t = _step_batch(meta["seed"], step, len(first), meta["batch_size"], shape, meta["num_train_timesteps"])
-        noisy = scheduler.add_noise(dm.encode_target(first[idx], last[idx], meta), noise, t)
-        pred = unet(torch.cat([noisy, first[idx]], dim=1), t, encoder_hidden_states=context[idx]).sample
-        loss = F.mse_loss(pred, noise)
+        idx, noise, t = _step_batch(meta["seed"], step, len(run.first), meta["batch_size"], shape, meta["num_train_timesteps"])
+        first = run.first[idx]
+        clean = dm.encode_target(first, run.last[idx], meta)
+        noisy = run.scheduler.add_noise(clean, noise, t)
+        pred = unet(torch.cat([noisy, first], dim=1), t, encoder_hidden_states=run.context[idx]).sample
+        loss = F.mse_loss(pred, dm.loss_target(run.scheduler, clean, noise, t))
         for group in opt.param_groups:
             group["lr"] = _lr(step, float(train_cfg.lr), int(train_cfg.warmup_steps))
         opt.zero_grad(set_to_none=True)
@@ -220,13 +242,13 @@ def _steps(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_roo
         running = value if running is None else 0.98 * running + 0.02 * value
         log.add(step, value, opt.param_groups[0]["lr"])
         if step % log_every == 0:
-            tracker.log({"train/loss": value, "train/loss_smoothed": running, "train/lr": opt.param_groups[0]["lr"], "train/step": step})
+            run.tracker.log({"train/loss": value, "train/loss_smoothed": running, "train/lr": opt.param_groups[0]["lr"], "train/step": step})
         if bar is not None:
             bar.update(1)
             bar.set_postfix_str(f"loss {running:.4f}")
         if step % every == 0 or step == total:
             seconds = time.perf_counter() - started
-            _save_checkpoint(ckpt_root, unet, scheduler, opt, meta, step, seconds, int(train_cfg.keep_checkpoints))
+            _save_checkpoint(run.ckpt_root, unet, run.scheduler, opt, meta, step, seconds, int(train_cfg.keep_checkpoints))
             log.flush()
             if bar is None:
                 print(f"[train-dynamics] step {step}/{total} loss {running:.4f} ({seconds / 60:.1f} min)", flush=True)
@@ -247,39 +269,61 @@ def _save_checkpoint(root: Path, unet, scheduler, opt, meta, step: int, seconds:
 
 
 def evaluate_heldout(unet, scheduler_config, meta: dict[str, Any], heldout: Pairs, text, res: int, ev, out: Path) -> dict[str, Any]:
-    """MSE and SSIM of sampled last frames vs the real ones, and of the first frame as a guess."""
+    """MSE and SSIM of last frames sampled with each of `ev.sample_steps` DDIM step counts vs the
+    real ones, and of the first frame as a guess; heldout.png shows them side by side."""
     if len(heldout) == 0:
         print("[train-dynamics] no held-out demos (train.heldout_every < 2 or too few episodes): no quality figures")
         return {"heldout_demos": 0}
     context, _ = embed_unique(text, heldout.instructions)
     first = to_model(heldout.first, res)
-    steps, batch = int(ev.sample_steps), int(ev.batch_size)
-    started = time.perf_counter()
-    predicted = torch.cat(
-        [
-            dm.predict_last(unet, scheduler_config, meta, first[i : i + batch], context[i : i + batch], steps, int(ev.seed))
-            for i in range(0, len(first), batch)
-        ]
-    )
-    sample_seconds = (time.perf_counter() - started) / len(first)
-    real = to_uint8(to_model(heldout.last, res))
-    guess, copy = to_uint8(predicted), to_uint8(first)
-    result = {
+    real, copy = to_uint8(to_model(heldout.last, res)), to_uint8(first)
+    batch = int(ev.batch_size)
+    result: dict[str, Any] = {
         "heldout_demos": len(heldout),
-        "sample_steps": steps,
-        "seconds_per_sample": round(sample_seconds, 4),
-        "mse_predicted": float(mse(guess, real).mean()),
         "mse_copy_first": float(mse(copy, real).mean()),
-        "ssim_predicted": float(ssim(guess, real).mean()),
         "ssim_copy_first": float(ssim(copy, real).mean()),
+        "predicted": {},
     }
+    columns = [("first", copy)]
+    for steps in _step_counts(ev.sample_steps):
+        started = time.perf_counter()
+        predicted = torch.cat(
+            [
+                dm.predict_last(unet, scheduler_config, meta, first[i : i + batch], context[i : i + batch], steps, int(ev.seed))
+                for i in range(0, len(first), batch)
+            ]
+        )
+        guess = to_uint8(predicted)
+        result["predicted"][str(steps)] = {
+            "mse": float(mse(guess, real).mean()),
+            "ssim": float(ssim(guess, real).mean()),
+            "seconds_per_sample": round((time.perf_counter() - started) / len(first), 4),
+        }
+        columns.append((f"predicted, {steps} step{'s' if steps > 1 else ''}", guess))
+        print(
+            f"[train-dynamics] held-out ({len(heldout)} demos, {steps} sampling steps): MSE {result['predicted'][str(steps)]['mse']:.5f} "
+            f"(copy first frame {result['mse_copy_first']:.5f}), SSIM {result['predicted'][str(steps)]['ssim']:.3f} "
+            f"(copy first frame {result['ssim_copy_first']:.3f})"
+        )
     # one picture row per task (its first held-out demo), up to evaluation.num_images
     rows = list(dict.fromkeys(heldout.tasks))[: int(ev.num_images)]
     pick = [heldout.tasks.index(t) for t in rows]
-    comparison_picture(out / "heldout.png", copy[pick], guess[pick], real[pick], [heldout.demo_ids[i] for i in pick])
-    print(
-        f"[train-dynamics] held-out ({len(heldout)} demos, {steps} sampling steps): "
-        f"MSE {result['mse_predicted']:.4f} (copy first frame {result['mse_copy_first']:.4f}), "
-        f"SSIM {result['ssim_predicted']:.3f} (copy first frame {result['ssim_copy_first']:.3f}); picture: {out / 'heldout.png'}"
-    )
+    columns.append(("real last", real))
+    comparison_picture(out / "heldout.png", [(name, images[pick]) for name, images in columns], [heldout.demo_ids[i] for i in pick])
+    print(f"[train-dynamics] picture: {out / 'heldout.png'}")
     return result
+
+
+def _step_counts(value) -> list[int]:
+    counts = [int(v) for v in (value if OmegaConf.is_list(value) or isinstance(value, (list, tuple)) else [value])]
+    if not counts or min(counts) < 1:
+        raise ConfigError(f"evaluation.sample_steps must be a step count >= 1 or a list of them, got {value}")
+    return counts
+
+
+def flat_figures(quality: dict[str, Any]) -> dict[str, float]:
+    """heldout.json's figures as flat numeric keys (for wandb's summary)."""
+    flat = {k: v for k, v in quality.items() if isinstance(v, (int, float))}
+    for steps, figures in quality.get("predicted", {}).items():
+        flat.update({f"{name}_{steps}_steps": v for name, v in figures.items()})
+    return flat

@@ -97,7 +97,9 @@ class DynamicsEncoder(Encoder):
         self._scheduler = _scheduler_config(self.folder)  # read once: queries come one per episode
 
     def cache_key(self) -> str:
-        how = f"{self.mode}-{self.visual}-s{self.steps}" if self.mode == "predicted_frame" else self.mode
+        from xicm.plugins.dynamics.model import SAMPLER
+
+        how = f"{self.mode}-{self.visual}-s{self.steps}-{SAMPLER}" if self.mode == "predicted_frame" else self.mode
         return f"dynamics:{how}:seed{self.seed}:tw{self.text_weight:g}:{self._hash[:16]}"
 
     def encode(self, items: list[tuple[np.ndarray | None, str]]) -> np.ndarray:
