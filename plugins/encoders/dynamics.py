@@ -5,7 +5,8 @@ features is `(1 - text_weight) * visual cosine + text_weight * text cosine`:
 
 - visual, `mode: predicted_frame` (the paper's): the last frame the model samples from the
   first frame and the instruction (deterministic DDIM, `steps` steps, fixed starting noise
-  `seed`), flattened; `visual: change` uses predicted last minus first frame instead.
+  `seed`), minus the first frame (`visual: change`, the default: the static scene does not
+  count) or as it is (`visual: final`), flattened.
 - visual, `mode: unet_features` (one forward pass): the UNet's mid-block and first up-block
   activations from pure noise at the last training timestep, pooled to 2×2.
 - text: the checkpoint's text encoder's feature of the instruction (all-MiniLM by default; a
@@ -15,8 +16,8 @@ Options:
     checkpoint: a folder written by xicm-train-dynamics (its `final/`, or the training
         out_dir, whose `final/` is then used, or any `checkpoints/step-N/`).
     mode: predicted_frame | unet_features (default predicted_frame).
-    visual: final | change (default final; predicted_frame mode only).
-    steps: DDIM sampling steps (default 10; the paper samples 50).
+    visual: change | final (default change; predicted_frame mode only).
+    steps: DDIM sampling steps (default 1, the model's direct estimate; the paper samples 50).
     seed: starting noise (default 0).
     text_weight: 0..1 (default 0.5).
     batch_size: frames per forward pass (default 64).
@@ -70,8 +71,8 @@ class DynamicsEncoder(Encoder):
         self,
         checkpoint: str,
         mode: str = "predicted_frame",
-        visual: str = "final",
-        steps: int = 10,
+        visual: str = "change",
+        steps: int = 1,
         seed: int = 0,
         text_weight: float = 0.5,
         batch_size: int = 64,
