@@ -2,7 +2,8 @@
 
 InstructPix2Pix style: the UNet sees the noisy target concatenated with the clean first frame
 (6 input channels, pixel space at `resolution`), the instruction embedding as cross-attention
-context, and predicts the added noise. The target is the last frame (`target: frame`) or, by
+context, and predicts the velocity (`prediction: v_prediction`, default), the added noise
+(`epsilon`) or the clean target (`sample`). The target is the last frame (`target: frame`) or, by
 default, the last minus the first frame scaled to unit variance (`target: residual`). A checkpoint folder holds
 `unet/` and `scheduler/` in diffusers' save_pretrained format plus `dynamics.json` (resolution,
 text encoder, training step, dataset fingerprint).

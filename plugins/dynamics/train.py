@@ -1,5 +1,6 @@
 """`xicm-train-dynamics`: train the dynamics model on a pool's (first frame, instruction) ->
-last frame pairs with the noise-prediction loss, resumably.
+last frame pairs with the diffusion MSE loss (on velocity, noise or target, per
+`dynamics_model.prediction`), resumably.
 
 Every `checkpoint_every` steps a checkpoint `checkpoints/step-NNNNNN/` is written (unet/ and
 scheduler/ in diffusers' save_pretrained format, dynamics.json, training_state.pt with the
