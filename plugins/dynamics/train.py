@@ -75,6 +75,7 @@ def run_training(cfg: DictConfig) -> dict[str, Any]:
     if train_cfg.threads:
         torch.set_num_threads(int(train_cfg.threads))
     res = int(model_cfg["resolution"])
+    _step_counts(cfg.evaluation.sample_steps)  # a bad value stops here, not after the training
     tasks = list(cfg.tasks) if cfg.get("tasks") else None
     pairs = load_pairs(cfg.pool_path, tasks)
     train_set, heldout = split(pairs, int(train_cfg.heldout_every))
