@@ -108,26 +108,26 @@ class DynamicsEncoder(Encoder):
             raise ConfigError("the dynamics encoder needs front-camera frames; the pool or query has none")
         if not items:
             return np.zeros((0, 0), np.float32)
-        visual = self._visual([rgb for rgb, _ in items], [str(t) for _, t in items])
-        from xicm.plugins.dynamics.text import text_encoder
-
-        _ctx, text = text_encoder(self.meta.get("text_encoder"), self.device).encode([str(t) for _, t in items])
+        from xicm.plugins.dynamics.text import embed_unique, text_encoder
         from xicm.plugins.retrievers.similarity import normalise_rows
+
+        # one text pass gives both the UNet's context and the text feature
+        context, text = embed_unique(text_encoder(self.meta.get("text_encoder"), self.device), [str(t) for _, t in items])
+        visual = self._visual([rgb for rgb, _ in items], context)
 
         return np.concatenate(
             [normalise_rows(visual) * np.sqrt(1.0 - self.text_weight), normalise_rows(text) * np.sqrt(self.text_weight)], axis=1
         ).astype(np.float32)
 
-    def _visual(self, frames: list[np.ndarray], texts: list[str]) -> np.ndarray:
+    def _visual(self, frames: list[np.ndarray], context) -> np.ndarray:
+        """The visual part for frames, with `context` (N, tokens, dim) their instructions' embeddings."""
         import torch
 
         from xicm.plugins.dynamics import model as dm
         from xicm.plugins.dynamics.images import to_model
-        from xicm.plugins.dynamics.text import embed_unique, text_encoder
 
         unet = _load(self.folder, self.device)
         res = int(self.meta["resolution"])
-        context, _ = embed_unique(text_encoder(self.meta.get("text_encoder"), self.device), texts)
         out = []
         starts = range(0, len(frames), self.batch_size)
         if len(starts) > 1:  # a pool: show progress on a terminal (tqdm stays quiet otherwise)
