@@ -147,6 +147,10 @@ class Policy(ABC):
     def act(self, obs: Observation) -> list[KeyAction | JointAction]:
         """The next key actions or joint targets (at least one) for the current observation."""
 
+    def run_metadata(self) -> dict:
+        """Facts about the whole run for run.json (e.g. X-ICM: its pool and pool size); JSON-serialisable."""
+        return {}
+
     def record(self) -> dict:
         """Facts about the episode so far for episodes.jsonl: any of `retrieved`, `prompt_hash`,
         `responses`, `timings` (seconds per stage) and `extra` (anything JSON-serialisable);

@@ -124,7 +124,7 @@ def test_ray_oracle_run_matches_a_local_run_and_resumes_a_partial_file(tmp_path)
 @pytest.mark.slow
 def test_ray_nearest_demo_run_matches_a_local_run(smoke_pool, tmp_path):
     pool_path, _ = smoke_pool
-    common = ["llm=nearest_demo", "retriever=random", "prompt.k=2", "benchmark=smoke", "episodes=1",
+    common = ["llm=nearest_demo", "retriever=random", "policy.k=2", "benchmark=smoke", "episodes=1",
               f"pool_path={pool_path}", "progress=false", "tracking.mode=disabled", f"paths.cache={tmp_path}/cache"]
     _eval(*common, "hydra.run.dir=local", cwd=tmp_path)
     output = _eval(*common, *RAY, "hydra.run.dir=sharded", cwd=tmp_path)
