@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from xicm.core.types import (
+    Box,
     Demo,
     JointAction,
     KeyAction,
@@ -21,7 +22,6 @@ from xicm.core.types import (
     Trajectory,
 )
 
-Box = tuple[tuple[float, float, float], tuple[float, float, float]]
 
 
 class Simulator(ABC):

@@ -8,6 +8,7 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
+from xicm.core.dataset import require_pool
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import Registry
 
@@ -28,23 +29,13 @@ def check_parts(cfg: DictConfig, registry: Registry, pool: str) -> None:
         if name is None and group == "encoder":  # retrievers that need no encoder
             continue
         registry.get(group, name)
-    pool_file(pool)
-
-
-def pool_file(path: str | Path) -> Path:
-    path = Path(path)
-    if not path.exists():
-        raise ConfigError(
-            f"no demonstration pool at {path}; run `xicm-collect benchmark=<name>` first "
-            "(it writes pools/<benchmark.pool>.h5 under paths.data)"
-        )
-    return path
+    require_pool(pool)
 
 
 def load_demos(path: str | Path, tasks: list[str]):
     from xicm.core.dataset import load_pool
 
-    pool = load_pool(pool_file(path), tasks=tasks, with_images=True)
+    pool = load_pool(path, tasks=tasks, with_images=True)
     if not pool:
         raise ConfigError(f"the pool {path} holds no demos of {tasks}; collect them first")
     return pool
