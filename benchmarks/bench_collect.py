@@ -30,12 +30,10 @@ def main() -> None:
 
     from xicm.core.collect import collect, collect_parallel
     from xicm.core.plugins import get_registry
-    from xicm.plugins.simulators.sapien.tasks import TASKS
-
-    tasks = args.tasks or [name for name, ref in TASKS.items() if ref.split == "seen"]
     registry = get_registry()
+    tasks = args.tasks or [name for name in registry.tasks(simulator="sapien") if registry.task_info(name).split == "seen"]
     sim_opts, det_opts = {"name": "sapien"}, {"name": "oracle"}
-    simulator = registry.create("simulator", sim_opts)  # the in-process collector keeps one alive,
+    simulator = registry.create_simulator(sim_opts)  # the in-process collector keeps one alive,
     detector = registry.create("detector", det_opts)  # as one worker process does
     simulator.reset(tasks[0], 0, 999)  # first render compiles shaders (each worker pays this too)
 

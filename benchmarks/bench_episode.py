@@ -35,7 +35,7 @@ def main() -> None:
 
     reg = get_registry()
     t0 = time.perf_counter()
-    sim = reg.create("simulator", build.options(cfg, "simulator"))
+    sim = reg.create_simulator(build.options(cfg, "simulator"))
     t_sim = time.perf_counter() - t0
     pool = load_pool(build.check_pool(cfg.pool_path), tasks=list(cfg.benchmark.pool_tasks))
     retriever = build.build_retriever(cfg, reg, build.build_encoder(cfg, reg))

@@ -172,7 +172,7 @@ def _worker_start(simulator_options: dict, detector_options: dict, camera: str) 
     os.environ.setdefault("LP_NUM_THREADS", "1")
 
     registry = get_registry()
-    _WORKER["simulator"] = registry.create("simulator", simulator_options)
+    _WORKER["simulator"] = registry.create_simulator(simulator_options)
     _WORKER["detector"] = registry.create("detector", detector_options)
     _WORKER["camera"] = camera
 

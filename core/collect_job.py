@@ -40,7 +40,7 @@ def run_collect(cfg: DictConfig) -> dict[str, tuple[int, int]]:
     )
     start = time.perf_counter()
     if workers == 1:
-        simulator = registry.create("simulator", build.options(cfg, "simulator"))
+        simulator = registry.create_simulator(build.options(cfg, "simulator"))
         try:
             detector = registry.create("detector", build.options(cfg, "detector"))
             counts = collect(simulator=simulator, detector=detector, **common)

@@ -53,7 +53,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     out_dir.mkdir(parents=True, exist_ok=True)
 
     plugins = describe_plugins(registry.pm)
-    simulator = registry.create("simulator", build.options(cfg, "simulator"))
+    simulator = registry.create_simulator(build.options(cfg, "simulator"))
     try:
         context = PolicyContext(cfg=cfg, registry=registry, simulator=simulator)
         policy = registry.create("policy", build.options(cfg, "policy"), context=context)

@@ -107,7 +107,7 @@ class EpisodeWorker:
         cfg = OmegaConf.create(config)
         registry = get_registry()
         self.episode_options = episode_options
-        self.simulator = registry.create("simulator", build.options(cfg, "simulator"))
+        self.simulator = registry.create_simulator(build.options(cfg, "simulator"))
         context = PolicyContext(cfg=cfg, registry=registry, simulator=self.simulator)
         self.policy = registry.create("policy", build.options(cfg, "policy"), context=context)
 
