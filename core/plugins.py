@@ -113,7 +113,7 @@ class Registry:
             raise UnknownPluginError(f"unknown {kind} '{name}'; available: {available}{broken}") from None
 
     def tasks(self, simulator: str) -> dict[str, Any]:
-        """The tasks registered for `simulator`: name -> task class, by name."""
+        """The tasks registered for `simulator`: name -> task class (or a stand-in called like one), by name."""
         entries = self._entries["task"]
         return {n: entries[n].factory for n in sorted(entries) if entries[n].extra["simulator"] == simulator}
 

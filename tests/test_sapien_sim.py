@@ -20,6 +20,9 @@ TASKS = list(get_registry().tasks(simulator="sapien"))  # every task registered 
 # Free objects settle for a few physics steps at reset; PhysX's solver caches make those
 # steps repeat to ~1e-4 m (not bit-exactly) once the scene has run other episodes.
 SETTLE_TOL = 1e-3
+# unplug_charger's charger rests wedged in its socket: its settle repeats only to ~1e-3
+# (1.1e-3 in a quaternion component measured after the other tasks' episodes in name order).
+SETTLE_TOL_BY_TASK = {"unplug_charger": 2e-3}
 
 
 def scene_state(sim) -> np.ndarray:
@@ -68,7 +71,8 @@ def test_same_seed_gives_the_same_scene_in_another_process(sim):
     theirs = json.loads(run.stdout.strip().splitlines()[-1])
     for task in TASKS:
         sim.reset_state(task, 7, 0)
-        np.testing.assert_allclose(np.concatenate(theirs[task]), scene_state(sim), rtol=0, atol=SETTLE_TOL)
+        tol = SETTLE_TOL_BY_TASK.get(task, SETTLE_TOL)
+        np.testing.assert_allclose(np.concatenate(theirs[task]), scene_state(sim), rtol=0, atol=tol, err_msg=task)
 
 
 # ------------------------------------------------------------------ success checks
