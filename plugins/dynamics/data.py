@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from xicm.core.dataset import DEMOS, _demo_ids, _missing_pool, _open_read, _str
+from xicm.core.dataset import DEMOS, _demo_ids, _open_read, _str, require_pool
 from xicm.core.errors import ConfigError
 
 
@@ -47,9 +47,7 @@ class Pairs:
 
 def load_pairs(path: str | Path, tasks: list[str] | None = None) -> Pairs:
     """Every demo of the pool (of `tasks` when given) that has both front frames, by demo id."""
-    path = Path(path)
-    if not path.exists():
-        raise _missing_pool(path)
+    path = require_pool(path)
     wanted = None if tasks is None else set(tasks)
     ids, task_names, texts, episodes, firsts, lasts = [], [], [], [], [], []
     with _open_read(path) as f:
