@@ -28,15 +28,15 @@ def main() -> None:
     ap.add_argument("--tasks", nargs="*", default=None, help="default: the 18 seen tasks")
     args = ap.parse_args()
 
-    from xicm.core.collect import collect, collect_parallel
+    from hydra import compose, initialize_config_module
+    from xicm.core.collect import build_collector, collect, collect_parallel, collector_config
     from xicm.core.plugins import get_registry
-    from xicm.plugins.simulators.sapien.tasks import TASKS
 
-    tasks = args.tasks or [name for name, ref in TASKS.items() if ref.split == "seen"]
     registry = get_registry()
-    sim_opts, det_opts = {"name": "sapien"}, {"name": "oracle"}
-    simulator = registry.create("simulator", sim_opts)  # the in-process collector keeps one alive,
-    detector = registry.create("detector", det_opts)  # as one worker process does
+    tasks = args.tasks or [t for t in registry.names("task") if registry.task_info(t).split == "seen"]
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        cfg = compose("config")  # the default simulator and detector, as xicm-collect builds them
+    simulator, detector = build_collector(cfg)  # the in-process collector keeps one alive, as one worker does
     simulator.reset(tasks[0], 0, 999)  # first render compiles shaders (each worker pays this too)
 
     rates: dict[int, list[float]] = {1: [], args.workers: []}
@@ -49,7 +49,7 @@ def main() -> None:
                     counts = collect(simulator, detector, tasks, args.demos_per_task, 10_000 + rep, path, progress=False)
                 else:
                     counts = collect_parallel(
-                        sim_opts, det_opts, tasks, args.demos_per_task, 10_000 + rep, path, workers, progress=False
+                        collector_config(cfg), tasks, args.demos_per_task, 10_000 + rep, path, workers, progress=False
                     )
                 seconds = time.perf_counter() - start
                 demos = sum(ok for ok, _ in counts.values())

@@ -26,35 +26,23 @@ def main() -> None:
     args = ap.parse_args()
 
     with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
-        cfg = compose("config", overrides=[f"llm={args.llm}", f"retriever={args.retriever}", f"prompt.k={args.k}", *args.overrides])
+        cfg = compose("config", overrides=[f"llm={args.llm}", f"retriever={args.retriever}", f"policy.k={args.k}", *args.overrides])
 
-    from xicm.core import build
-    from xicm.core.agent import XICMAgent
-    from xicm.core.dataset import load_pool
-    from xicm.core.plugins import get_registry
+    from xicm.core.build import build_run
+    from xicm.core.episode import run_episode
 
-    reg = get_registry()
     t0 = time.perf_counter()
-    sim = reg.create("simulator", build.options(cfg, "simulator"))
-    t_sim = time.perf_counter() - t0
-    pool = load_pool(build.check_pool(cfg.pool_path), tasks=list(cfg.benchmark.pool_tasks))
-    retriever = build.build_retriever(cfg, reg, build.build_encoder(cfg, reg))
-    t0 = time.perf_counter()
-    retriever.prepare(pool)
-    t_prepare = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    llm = build.build_llm(cfg, reg)
-    t_llm_load = time.perf_counter() - t0
-    agent = XICMAgent(
-        sim, reg.create("detector", build.options(cfg, "detector")), retriever,
-        reg.create("prompt", build.options(cfg, "prompt")), llm, pool, k=args.k, max_steps=int(cfg.max_steps),
-    )
+    run = build_run(cfg)  # the simulator, then the policy: pool, retriever features, LLM load
+    t_build = time.perf_counter() - t0
     tasks = args.tasks.split(",")
-    sim.reset(tasks[0], 0, 999)  # warm-up: the first render of a process compiles shaders
-    results = [agent.run_episode(tasks[i % len(tasks)], 0, i) for i in range(args.episodes)]
-    sim.close()
+    run.simulator.reset(tasks[0], 0, 999)  # warm-up: the first render of a process compiles shaders
+    results = [
+        run_episode(run.simulator, run.policy, tasks[i % len(tasks)], 0, i, int(cfg.max_steps)) for i in range(args.episodes)
+    ]
+    metadata = run.metadata()
+    run.close()
 
-    print(f"simulator start {t_sim:.2f} s | retriever.prepare({len(pool)} demos) {t_prepare:.2f} s | LLM load {t_llm_load:.2f} s")
+    print(f"build_run (simulator + policy over {metadata.get('pool_size')} pool demos) {t_build:.2f} s")
     print(f"{args.episodes} episodes, llm={args.llm}, retriever={args.retriever}, k={args.k}; success {sum(r.success for r in results)}/{len(results)}")
     stages = sorted({s for r in results for s in r.timings}, key=lambda s: (s == "total", s))
     print("| stage | median s/episode | max s |\n|---|---:|---:|")

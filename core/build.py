@@ -1,77 +1,84 @@
-"""Turn a composed config into plugin instances, checking every name before anything heavy."""
+"""The one way from a composed config to a live run: check every name first, then build the
+simulator and the policy. xicm-eval, its Ray workers, xicm-collect and the benchmarks all
+build through here."""
 
 from __future__ import annotations
 
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
 from xicm.core.errors import ConfigError
-from xicm.core.plugins import Registry
-
-# config group -> plugin family
-GROUP_KINDS = {
-    "simulator": "simulator",
-    "detector": "detector",
-    "encoder": "encoder",
-    "retriever": "retriever",
-    "prompt": "prompt",
-    "llm": "llm",
-    "policy": "policy",
-}
-# options that belong to the run, not to the plugin's factory
-NON_FACTORY_KEYS = {"prompt": {"k"}}
+from xicm.core.interfaces import Policy, PolicyContext, Simulator
+from xicm.core.plugins import Registry, get_registry
 
 
-def options(cfg: DictConfig, group: str) -> dict[str, Any]:
-    """A group's options as a plain dict, without the keys the run itself uses."""
+def group_options(cfg: DictConfig, group: str) -> dict[str, Any]:
+    """A config group's options as a plain dict: `name` picks the plugin, the rest are its factory's arguments."""
     data = OmegaConf.to_container(cfg[group], resolve=True)
     assert isinstance(data, dict)
-    for key in NON_FACTORY_KEYS.get(group, ()):
-        data.pop(key, None)
     return data
 
 
-def check_names(cfg: DictConfig, registry: Registry, tasks: list[str]) -> None:
-    """Raise UnknownPluginError / ConfigError naming what exists, before anything is built."""
-    for group, kind in GROUP_KINDS.items():
-        name = cfg[group].get("name")
-        if name is None and group == "encoder":
-            continue
-        registry.get(kind, name)
+def check_run(cfg: DictConfig, registry: Registry, tasks: list[str]) -> None:
+    """Raise UnknownPluginError / ConfigError naming what exists, before anything is built.
+
+    A policy may register a `check(cfg, registry)` callable beside its factory to check the
+    groups and files it will build from (X-ICM: its parts and its pool).
+    """
+    registry.get("simulator", cfg.simulator.name)
+    policy = registry.get("policy", cfg.policy.name)
+    check_tasks(registry, tasks)
+    check = policy.extra.get("check")
+    if check is not None:
+        check(cfg, registry)
+
+
+def check_tasks(registry: Registry, tasks: list[str]) -> None:
     known = registry.names("task")
     unknown = [t for t in tasks if t not in known]
     if unknown:
         raise ConfigError(f"unknown task {', '.join(repr(t) for t in unknown)}; available: {', '.join(known)}")
 
 
-def check_pool(path: str | Path) -> Path:
-    path = Path(path)
-    if not path.exists():
-        raise ConfigError(
-            f"no demonstration pool at {path}; run `xicm-collect benchmark=<name>` first "
-            "(it writes pools/<benchmark.pool>.h5 under paths.data)"
-        )
-    return path
+def task_splits(registry: Registry, tasks: list[str]) -> dict[str, str]:
+    """Each task's split ('seen', 'level1', 'level2'), from its registration (no simulator needed)."""
+    return {t: registry.task_info(t).split for t in tasks}
 
 
-def build_encoder(cfg: DictConfig, registry: Registry):
-    opts = options(cfg, "encoder")
-    if opts.get("name") is None:
-        return None
-    return registry.create("encoder", opts)
+@dataclass
+class Run:
+    """A live simulator and, for evaluation, the policy acting in it."""
+
+    simulator: Simulator
+    policy: Policy | None
+    policy_name: str | None = None
+
+    def metadata(self) -> dict[str, Any]:
+        """What run.json records about the policy: its name and whatever the policy reports."""
+        if self.policy is None:
+            return {}
+        return {"policy": self.policy_name, **self.policy.run_metadata()}
+
+    def close(self) -> None:
+        self.simulator.close()
 
 
-def build_retriever(cfg: DictConfig, registry: Registry, encoder):
-    return registry.create("retriever", options(cfg, "retriever"), encoder=encoder)
+def create_simulator(cfg: DictConfig, registry: Registry) -> Simulator:
+    return registry.create("simulator", group_options(cfg, "simulator"))
 
 
-def build_llm(cfg: DictConfig, registry: Registry):
-    """The configured LLM, behind the SQLite response cache when it decodes deterministically."""
-    llm = registry.create("llm", options(cfg, "llm"))
-    if cfg.llm_cache.enabled and getattr(llm, "deterministic", False):
-        from xicm.core.llm_cache import CachedLLM
-
-        llm = CachedLLM(llm, cfg.llm_cache.path)
-    return llm
+def build_run(cfg: DictConfig, registry: Registry | None = None, *, with_policy: bool = True) -> Run:
+    """The run's simulator and (with_policy) its policy; the simulator is closed if the policy fails to build."""
+    registry = registry or get_registry()
+    simulator = create_simulator(cfg, registry)
+    if not with_policy:
+        return Run(simulator, None)
+    try:
+        context = PolicyContext(cfg=cfg, registry=registry, simulator=simulator)
+        policy = registry.create("policy", group_options(cfg, "policy"), context=context)
+    except BaseException:
+        simulator.close()
+        raise
+    return Run(simulator, policy, str(cfg.policy.name))

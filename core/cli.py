@@ -51,19 +51,6 @@ def collect_main(cfg: DictConfig) -> None:
         _fail(exc)
 
 
-@hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="train_dynamics")
-def train_dynamics_main(cfg: DictConfig) -> None:
-    """Train the dynamics model of demonstration selection on a pool (resumable)."""
-    try:
-        from xicm.plugins.dynamics.train import run_training
-    except ImportError as exc:
-        _fail(RuntimeError(f"xicm-train-dynamics needs torch and diffusers ({exc}); pip install 'xicm[dynamics]'"))
-    try:
-        run_training(cfg)
-    except (XicmError, UnknownPluginError) as exc:
-        _fail(exc)
-
-
 def plugins_main() -> None:
     """Print every loaded plugin with its version and hooks, and what each family offers."""
     from xicm.core.plugins import KINDS, describe_plugins, get_registry

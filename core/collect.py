@@ -123,8 +123,7 @@ def collect(
 
 
 def collect_parallel(
-    simulator_options: dict,
-    detector_options: dict,
+    config: dict,
     tasks: Iterable[str],
     demos_per_task: int,
     seed: int,
@@ -134,7 +133,8 @@ def collect_parallel(
     progress: bool = True,
     camera: str = "front",
 ) -> dict[str, tuple[int, int]]:
-    """collect() over `workers` processes, each building its simulator and detector once."""
+    """collect() over `workers` processes, each building its simulator and detector once from
+    `config` (collector_config(cfg): the run's simulator and detector groups as plain dicts)."""
     from concurrent.futures import ProcessPoolExecutor
     from concurrent.futures.process import BrokenProcessPool
 
@@ -143,7 +143,7 @@ def collect_parallel(
         max_workers=workers,
         mp_context=context,
         initializer=_worker_start,
-        initargs=(dict(simulator_options), dict(detector_options), camera),
+        initargs=(dict(config), camera),
     ) as pool:
         workspace = pool.submit(_worker_workspace).result()
 
@@ -164,17 +164,36 @@ def collect_parallel(
 _WORKER: dict = {}
 
 
-def _worker_start(simulator_options: dict, detector_options: dict, camera: str) -> None:
-    from xicm.core.plugins import get_registry
+def _worker_start(config: dict, camera: str) -> None:
+    from omegaconf import OmegaConf
 
     threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
     # one software-rendering thread per worker: the workers already fill the cores
     os.environ.setdefault("LP_NUM_THREADS", "1")
 
-    registry = get_registry()
-    _WORKER["simulator"] = registry.create("simulator", simulator_options)
-    _WORKER["detector"] = registry.create("detector", detector_options)
+    _WORKER["simulator"], _WORKER["detector"] = build_collector(OmegaConf.create(config))
     _WORKER["camera"] = camera
+
+
+def collector_config(cfg) -> dict:
+    """The part of a run's config a collection worker builds from (picklable, resolved)."""
+    from omegaconf import OmegaConf
+
+    return {group: OmegaConf.to_container(cfg[group], resolve=True) for group in ("simulator", "detector")}
+
+
+def build_collector(cfg) -> tuple[Simulator, Detector]:
+    """The simulator (core.build.build_run, without a policy) and the detector that records a demo's objects."""
+    from xicm.core.build import build_run, group_options
+    from xicm.core.plugins import get_registry
+
+    registry = get_registry()
+    run = build_run(cfg, registry, with_policy=False)
+    try:
+        return run.simulator, registry.create("detector", group_options(cfg, "detector"))
+    except BaseException:
+        run.close()
+        raise
 
 
 def _exit_with_parent(parent: int) -> None:

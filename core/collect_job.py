@@ -18,14 +18,11 @@ def run_collect(cfg: DictConfig) -> dict[str, tuple[int, int]]:
     tasks = list(cfg.benchmark.pool_tasks)
     if not tasks:
         raise ConfigError(f"benchmark '{cfg.benchmark.name}' lists no pool_tasks to collect")
-    known = registry.names("task")
-    unknown = [t for t in tasks if t not in known]
-    if unknown:
-        raise ConfigError(f"unknown task {', '.join(map(repr, unknown))}; available: {', '.join(known)}")
+    build.check_tasks(registry, tasks)
     registry.get("simulator", cfg.simulator.name)
     registry.get("detector", cfg.detector.name)
 
-    from xicm.core.collect import collect, collect_parallel
+    from xicm.core.collect import build_collector, collect, collect_parallel, collector_config
 
     out_path = Path(cfg.pool_path)
     out_path.parent.mkdir(parents=True, exist_ok=True)
@@ -40,16 +37,13 @@ def run_collect(cfg: DictConfig) -> dict[str, tuple[int, int]]:
     )
     start = time.perf_counter()
     if workers == 1:
-        simulator = registry.create("simulator", build.options(cfg, "simulator"))
+        simulator, detector = build_collector(cfg)
         try:
-            detector = registry.create("detector", build.options(cfg, "detector"))
             counts = collect(simulator=simulator, detector=detector, **common)
         finally:
             simulator.close()
     else:
-        counts = collect_parallel(
-            build.options(cfg, "simulator"), build.options(cfg, "detector"), workers=workers, **common
-        )
+        counts = collect_parallel(collector_config(cfg), workers=workers, **common)
     seconds = time.perf_counter() - start
     print(f"\npool: {out_path}  ({workers} worker{'s' if workers > 1 else ''}, {seconds:.0f} s)")
     print("| task | demos | attempts | scripted success % |\n|---|---:|---:|---:|")

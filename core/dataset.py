@@ -21,16 +21,13 @@ import numpy as np
 
 from xicm.core import __version__, encoding
 from xicm.core.errors import ConfigError
-from xicm.core.types import Demo, KeyAction, Trajectory
+from xicm.core.types import Box, Demo, KeyAction, Trajectory
 
 FORMAT = "xicm-demos"
 FORMAT_VERSION = 1
 DEMOS = "demos"
 INCOMPLETE = "_incomplete"
 ATTEMPTS = "attempts"
-
-Box = tuple[tuple[float, float, float], tuple[float, float, float]]
-
 
 def demo_id(task: str, seed: int, episode: int) -> str:
     """The id (and HDF5 path below /demos) of a demo: '{task}/s{seed}/e{episode:04d}'."""
@@ -39,8 +36,15 @@ def demo_id(task: str, seed: int, episode: int) -> str:
     return f"{task}/s{int(seed)}/e{int(episode):04d}"
 
 
-def _missing_pool(path: Path) -> ConfigError:
-    return ConfigError(f"no demonstration pool at {path}; run `xicm-collect benchmark=<name>` first")
+def require_pool(path: str | Path) -> Path:
+    """The pool's path, or ConfigError saying what to run when there is no file there."""
+    path = Path(path)
+    if not path.exists():
+        raise ConfigError(
+            f"no demonstration pool at {path}; run `xicm-collect benchmark=<name>` first "
+            "(it writes pools/<benchmark.pool>.h5 under paths.data)"
+        )
+    return path
 
 
 def _str(value: Any) -> str:
@@ -285,9 +289,7 @@ def load_pool(
     with_images loads first/last RGB and depth; with_trajectories loads the recorded
     control-frame trajectory (not needed for retrieval or prompting).
     """
-    path = Path(path)
-    if not path.exists():
-        raise _missing_pool(path)
+    path = require_pool(path)
     wanted = None if tasks is None else set(tasks)
     demos = []
     with _open_read(path) as f:
@@ -300,9 +302,7 @@ def load_pool(
 
 def pool_info(path: str | Path) -> dict[str, Any]:
     """File attributes, the workspace and the number of demos and attempts per task."""
-    path = Path(path)
-    if not path.exists():
-        raise _missing_pool(path)
+    path = require_pool(path)
     with _open_read(path) as f:
         attrs = {k: (_str(v) if isinstance(v, (bytes, str)) else v) for k, v in f.attrs.items()}
         ids = _demo_ids(f)

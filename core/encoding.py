@@ -8,9 +8,8 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from xicm.core.types import KeyAction, Trajectory
+from xicm.core.types import Box, KeyAction, Trajectory
 
-Box = tuple[tuple[float, float, float], tuple[float, float, float]]
 
 GRID = 100  # voxels per axis
 ROT_BIN_DEG = 5.0

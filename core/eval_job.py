@@ -10,7 +10,6 @@ from omegaconf import DictConfig, OmegaConf
 from xicm.core import build, report
 from xicm.core.atomic import write_json_atomic
 from xicm.core.episode_loop import run_episodes
-from xicm.core.interfaces import PolicyContext
 from xicm.core.plugins import describe_plugins, get_registry
 from xicm.core.ray_shards import episode_runner, shard_settings
 from xicm.core.run_dir import RunDir, config_fingerprint, episode_keys
@@ -20,47 +19,39 @@ from xicm.core.video import VideoSettings
 def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     registry = get_registry()
     tasks = list(cfg.benchmark.tasks)
-    build.check_names(cfg, registry, tasks)
+    build.check_run(cfg, registry, tasks)
     shards = shard_settings(cfg)
     video = VideoSettings.from_config(cfg, out_dir)
     RunDir(out_dir).check_same_run(cfg)
     out_dir.mkdir(parents=True, exist_ok=True)
 
     plugins = describe_plugins(registry.pm)
-    simulator = registry.create("simulator", build.options(cfg, "simulator"))
-    try:
-        context = PolicyContext(cfg=cfg, registry=registry, simulator=simulator)
-        policy = registry.create("policy", build.options(cfg, "policy"), context=context)
-        pool = getattr(policy, "pool", None)
-        splits = {t: simulator.task_info(t).split for t in tasks}
+    splits = build.task_splits(registry, tasks)
+    keys = episode_keys(tasks, cfg.seeds, cfg.episodes)
+    transcripts_dir = out_dir if cfg.get("transcripts", True) else None
+    with episode_runner(
+        shards, cfg, out_dir, keys, max_steps=int(cfg.max_steps), video=video, transcripts_dir=transcripts_dir
+    ) as runner:
         write_json_atomic(
             RunDir(out_dir).meta,
             {
                 "fingerprint": config_fingerprint(cfg),
                 "tasks": tasks,
                 "splits": splits,
-                "policy": cfg.policy.name,
-                "pool": None if pool is None else str(cfg.pool_path),
-                "pool_size": None if pool is None else len(pool),
+                **runner.metadata,
                 "plugins": plugins,
                 "config": OmegaConf.to_container(cfg, resolve=True),
             },
         )
         tracker = Tracker.for_job(cfg, out_dir, config={**OmegaConf.to_container(cfg, resolve=True), "plugins": plugins})
         try:
-            keys = episode_keys(tasks, cfg.seeds, cfg.episodes)
-            max_steps = int(cfg.max_steps)
-            transcripts_dir = out_dir if cfg.get("transcripts", True) else None
-            with episode_runner(
-                shards, cfg, out_dir, keys, simulator, policy, max_steps=max_steps, video=video, transcripts_dir=transcripts_dir
-            ) as run_one:
-                rows = run_episodes(
-                    run_one,
-                    keys,
-                    out_dir,
-                    progress=bool(cfg.progress),
-                    on_result=lambda r: tracker.log({"success": int(r.success), "steps": r.steps, f"task/{r.task}/success": int(r.success)}),
-                )
+            rows = run_episodes(
+                runner.run_one,
+                keys,
+                out_dir,
+                progress=bool(cfg.progress),
+                on_result=lambda r: tracker.log({"success": int(r.success), "steps": r.steps, f"task/{r.task}/success": int(r.success)}),
+            )
             summary = report.write_report(rows, splits, tasks, out_dir)
             _track_summary(tracker, summary)
             tracker.log_run_media(rows, out_dir)
@@ -68,8 +59,6 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
             note = tracker.finish()
             if note:
                 print(note)
-    finally:
-        simulator.close()
     return summary
 
 

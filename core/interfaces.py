@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from xicm.core.types import (
+    Box,
     Demo,
     JointAction,
     KeyAction,
@@ -21,7 +22,6 @@ from xicm.core.types import (
     Trajectory,
 )
 
-Box = tuple[tuple[float, float, float], tuple[float, float, float]]
 
 
 class Simulator(ABC):
@@ -146,6 +146,10 @@ class Policy(ABC):
     @abstractmethod
     def act(self, obs: Observation) -> list[KeyAction | JointAction]:
         """The next key actions or joint targets (at least one) for the current observation."""
+
+    def run_metadata(self) -> dict:
+        """Facts about the whole run for run.json (e.g. X-ICM: its pool and pool size); JSON-serialisable."""
+        return {}
 
     def record(self) -> dict:
         """Facts about the episode so far for episodes.jsonl: any of `retrieved`, `prompt_hash`,

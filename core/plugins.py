@@ -15,25 +15,25 @@ from xicm.core import hookspecs
 
 log = logging.getLogger(__name__)
 
-#: Built-in plugins. They are also declared as entry points in pyproject.toml; this list makes
-#: them load even when the package metadata is stale (e.g. a source checkout on sys.path).
-BUILTIN_PLUGINS = (
-    "xicm.plugins.simulators.sapien",
-    "xicm.plugins.detectors.oracle",
-    "xicm.plugins.detectors.noisy_oracle",
-    "xicm.plugins.detectors.grounding_dino",
-    "xicm.plugins.retrievers.random",
-    "xicm.plugins.retrievers.similarity",
-    "xicm.plugins.encoders.minilm",
-    "xicm.plugins.encoders.dynamics",
-    "xicm.plugins.retrievers.dynamics",
-    "xicm.plugins.prompts.xicm_prompt",
-    "xicm.plugins.llms.transformers_local",
-    "xicm.plugins.llms.openai_compatible",
-    "xicm.plugins.llms.nearest_demo",
-    "xicm.plugins.policies.xicm",
-    "xicm.plugins.policies.oracle",
-)
+#: The built-in plugins, by name: the one place they are listed (third-party plugins come from
+#: the `xicm` entry-point group). Loaded like any plugin, so XICM_DISABLE_PLUGINS applies to them.
+DEFAULT_PLUGINS = {
+    "sapien": "xicm.plugins.simulators.sapien",
+    "oracle_detector": "xicm.plugins.detectors.oracle",
+    "noisy_oracle_detector": "xicm.plugins.detectors.noisy_oracle",
+    "grounding_dino_detector": "xicm.plugins.detectors.grounding_dino",
+    "random_retriever": "xicm.plugins.retrievers.random",
+    "similarity_retriever": "xicm.plugins.retrievers.similarity",
+    "minilm_encoder": "xicm.plugins.encoders.minilm",
+    "dynamics_encoder": "xicm.plugins.encoders.dynamics",
+    "dynamics_retriever": "xicm.plugins.retrievers.dynamics",
+    "xicm_prompt": "xicm.plugins.prompts.xicm_prompt",
+    "transformers_local": "xicm.plugins.llms.transformers_local",
+    "openai_compatible": "xicm.plugins.llms.openai_compatible",
+    "nearest_demo": "xicm.plugins.llms.nearest_demo",
+    "xicm_policy": "xicm.plugins.policies.xicm",
+    "oracle_policy": "xicm.plugins.policies.oracle",
+}
 
 #: plugin family -> hook that fills it
 KINDS = {
@@ -94,6 +94,10 @@ class Registry:
 
         return register
 
+    def task_info(self, name: str):
+        """A registered task's TaskInfo (name, split, instruction, object names), without a simulator."""
+        return self.get("task", name).factory.info()
+
     def names(self, kind: str) -> list[str]:
         return sorted(self._entries[kind])
 
@@ -149,7 +153,7 @@ def missing_methods(kind: str, obj: Any) -> list[str]:
 
 
 def make_plugin_manager(load_entry_points: bool = True) -> pluggy.PluginManager:
-    """Built-in plugins plus the `xicm` entry points that pass XICM_LOAD_PLUGINS / XICM_DISABLE_PLUGINS.
+    """DEFAULT_PLUGINS plus the `xicm` entry points that pass XICM_LOAD_PLUGINS / XICM_DISABLE_PLUGINS.
 
     A plugin that fails to import is left out and remembered in `pm.xicm_failed` (name ->
     reason): runs that do not use it go on, and asking for one of its names says why it is missing.
@@ -159,27 +163,35 @@ def make_plugin_manager(load_entry_points: bool = True) -> pluggy.PluginManager:
     pm.xicm_failed = {}  # type: ignore[attr-defined]
     pm.xicm_versions = {}  # type: ignore[attr-defined]
     allowed, disabled = _env_list("XICM_LOAD_PLUGINS"), set(_env_list("XICM_DISABLE_PLUGINS") or ())
+    from xicm import __version__
+
+    for name, module in DEFAULT_PLUGINS.items():
+        if not {name, module} & disabled:
+            _register(pm, name, lambda module=module: importlib.import_module(module), version=__version__)
     for ep in metadata.entry_points(group="xicm") if load_entry_points else ():
         dist = getattr(ep, "dist", None)
         names = {ep.name, ep.value, getattr(dist, "name", None)}
-        builtin = ep.value in BUILTIN_PLUGINS
-        if names & disabled or (allowed is not None and not builtin and not names & set(allowed)):
+        if names & disabled or (allowed is not None and not names & set(allowed)):
             continue
-        if pm.get_plugin(ep.name) is not None or _is_registered_module(pm, ep.value):
+        if ep.value in DEFAULT_PLUGINS.values():  # metadata of an older xicm install listed its built-ins
             continue
-        try:
-            pm.register(ep.load(), name=ep.name)
-        except Exception as exc:  # noqa: BLE001 - a broken plugin must not take down the others
-            pm.xicm_failed[ep.name] = f"{type(exc).__name__}: {exc}"
-            log.warning("plugin %s (%s) was not loaded: %s", ep.name, ep.value, pm.xicm_failed[ep.name])
-            continue
-        pm.xicm_versions[ep.name] = dist.version if dist is not None else "unknown"
-    for module_name in BUILTIN_PLUGINS:
-        if module_name in disabled or module_name.rsplit(".", 1)[-1] in disabled:
-            continue
-        if pm.get_plugin(module_name) is None and not _is_registered_module(pm, module_name):
-            pm.register(importlib.import_module(module_name), name=module_name)
+        _register(pm, ep.name, ep.load, version=dist.version if dist is not None else "unknown")
     return pm
+
+
+def _register(pm: pluggy.PluginManager, name: str, load: Callable[[], Any], version: str | None) -> None:
+    if pm.get_plugin(name) is not None:
+        pm.xicm_failed[name] = f"a second plugin is called '{name}' (only the first was loaded)"
+        log.warning("plugin %s: %s", name, pm.xicm_failed[name])
+        return
+    try:
+        pm.register(load(), name=name)
+    except Exception as exc:  # noqa: BLE001 - a broken plugin must not take down the others
+        pm.xicm_failed[name] = f"{type(exc).__name__}: {exc}"
+        log.warning("plugin %s was not loaded: %s", name, pm.xicm_failed[name])
+        return
+    if version is not None:
+        pm.xicm_versions[name] = version
 
 
 def _env_list(var: str) -> list[str] | None:
@@ -188,10 +200,6 @@ def _env_list(var: str) -> list[str] | None:
     if value is None:
         return None
     return [part.strip() for part in value.split(",") if part.strip()]
-
-
-def _is_registered_module(pm: pluggy.PluginManager, module_name: str) -> bool:
-    return any(getattr(p, "__name__", None) == module_name for p in pm.get_plugins())
 
 
 _default: Registry | None = None
@@ -203,12 +211,6 @@ def get_registry() -> Registry:
     if _default is None:
         _default = Registry(make_plugin_manager())
     return _default
-
-
-def reset_registry() -> None:
-    """Forget the cached registry (tests that register throwaway plugins call this)."""
-    global _default
-    _default = None
 
 
 def describe_plugins(pm: pluggy.PluginManager) -> list[dict[str, Any]]:

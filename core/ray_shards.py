@@ -1,6 +1,6 @@
 """Episode-level sharding: `shards.backend=ray` spreads one run's episodes over Ray actors.
 
-Each actor builds the simulator and the policy once (as xicm-eval does) and runs the
+Each actor builds the simulator and the policy once (core.build.build_run, as a local run does) and runs the
 (task, seed, episode) keys the driver hands it. The driver stays the only writer of
 episodes.jsonl: `core.episode_loop.run_episodes` asks for the pending keys one by one, in key
 order, and this module answers from a window of keys handed out ahead to the actors. So the
@@ -69,58 +69,61 @@ def shard_settings(cfg: DictConfig) -> ShardSettings:
     return settings
 
 
+@dataclass
+class EpisodeRunner:
+    """What run_episodes calls per pending key, and the policy's run metadata (for run.json)."""
+
+    run_one: RunOne
+    metadata: dict[str, Any]
+
+
 @contextlib.contextmanager
 def episode_runner(
-    settings: ShardSettings, cfg: DictConfig, out_dir: Path, keys: list[Key], simulator, policy, **episode_options: Any
-) -> Iterator[RunOne]:
-    """Yield the function run_episodes calls per pending key: `run_episode` on this process's
-    simulator and policy, or on Ray actors. `episode_options` (max_steps, ...) go to every
-    `core.episode.run_episode` call, here or in the actors."""
-    from xicm.core.episode import run_episode
-
-    def local(task: str, seed: int, episode: int) -> EpisodeResult:
-        return run_episode(simulator, policy, task, seed, episode, **episode_options)
-
-    if settings.backend == "local":
-        yield local
-        return
+    settings: ShardSettings, cfg: DictConfig, out_dir: Path, keys: list[Key], **episode_options: Any
+) -> Iterator[EpisodeRunner]:
+    """Build the run here (`build_run`) and run episodes in this process, or on Ray actors that
+    each build their own (the driver then builds nothing). `episode_options` (max_steps, ...) go
+    to every `core.episode.run_episode` call, here or in the actors."""
     done = {(r["task"], r["seed"], r["episode"]) for r in RunDir(out_dir).read_episodes()}
     pending = [k for k in keys if k not in done]  # the order run_episodes will ask in
-    if not pending:
-        yield local  # nothing to run: do not start a cluster
+    if settings.backend == "local" or not pending:  # nothing to run: do not start a cluster
+        worker = EpisodeWorker(cfg, episode_options)
+        try:
+            yield EpisodeRunner(worker.run, worker.metadata())
+        finally:
+            worker.close()
         return
     shards = RayEpisodeShards(settings, OmegaConf.to_container(cfg, resolve=True), episode_options, pending)
     try:
-        yield shards
+        yield EpisodeRunner(shards, shards.metadata)
     finally:
         shards.close()
 
 
 class EpisodeWorker:
-    """One Ray actor's state: a simulator and a policy built once, then episode after episode."""
+    """A simulator and a policy built once (`build_run`), then episode after episode: the local
+    runner, and the state of each Ray actor."""
 
-    def __init__(self, config: dict[str, Any], episode_options: dict[str, Any]):
-        from xicm.core import build
-        from xicm.core.interfaces import PolicyContext
-        from xicm.core.plugins import get_registry
+    def __init__(self, config: DictConfig | dict[str, Any], episode_options: dict[str, Any]):
+        from xicm.core.build import build_run
 
-        cfg = OmegaConf.create(config)
-        registry = get_registry()
+        cfg = config if isinstance(config, DictConfig) else OmegaConf.create(config)
         self.episode_options = episode_options
-        self.simulator = registry.create("simulator", build.options(cfg, "simulator"))
-        context = PolicyContext(cfg=cfg, registry=registry, simulator=self.simulator)
-        self.policy = registry.create("policy", build.options(cfg, "policy"), context=context)
+        self.built = build_run(cfg)
 
     def pid(self) -> int:
         return os.getpid()
 
+    def metadata(self) -> dict[str, Any]:
+        return self.built.metadata()
+
     def run(self, task: str, seed: int, episode: int) -> EpisodeResult:
         from xicm.core.episode import run_episode
 
-        return run_episode(self.simulator, self.policy, task, seed, episode, **self.episode_options)
+        return run_episode(self.built.simulator, self.built.policy, task, seed, episode, **self.episode_options)
 
     def close(self) -> None:
-        self.simulator.close()
+        self.built.close()
 
 
 class RayEpisodeShards:
@@ -149,6 +152,7 @@ class RayEpisodeShards:
             actor_class = ray.remote(num_cpus=settings.cpus_per_worker)(EpisodeWorker)
             self.actors = [actor_class.remote(config, episode_options) for _ in range(settings.workers)]
             self.pids = self._wait(ray.get, [a.pid.remote() for a in self.actors])  # every actor built
+            self.metadata = self._wait(ray.get, self.actors[0].metadata.remote())  # the same in every actor
         except BaseException:
             self.close()
             raise

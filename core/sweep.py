@@ -1,7 +1,7 @@
 """One report over many runs (a Hydra multirun, or any folders of xicm-eval outputs).
 
 The config keys whose values differ between the runs are the sweep's axes (e.g.
-`detector.noise_cm`, `prompt.k`, `retriever.name`; never a key outside a run's identity, see
+`detector.noise_cm`, `policy.k`, `retriever.name`; never a key outside a run's identity, see
 core/run_dir.py). For every run: those values and its
 Level-1 / Level-2 / Seen / All success, mean (std over seeds). Written as sweep.md,
 sweep.csv and sweep.json, and sweep.png: success against the first axis, one line per group
@@ -60,7 +60,7 @@ def collect_sweep(runs: list[Path]) -> dict[str, Any]:
     """{'axes': [...], 'rows': [{axis values..., 'groups': {name: (mean, std, seeds)}, 'episodes': n, 'run': path}]}
 
     Axes are the overrides that differ between the jobs of a Hydra multirun (e.g. `retriever`,
-    `prompt.k`); for runs without Hydra's record, the config keys whose values differ.
+    `policy.k`); for runs without Hydra's record, the config keys whose values differ.
     """
     metas = [RunDir(r).read_meta() for r in runs]
     overrides = [recorded_overrides(r) for r in runs]

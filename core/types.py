@@ -7,6 +7,9 @@ from typing import Any
 
 import numpy as np
 
+#: (low xyz, high xyz) of an axis-aligned box, metres: the workspace the 100^3 text grid covers.
+Box = tuple[tuple[float, float, float], tuple[float, float, float]]
+
 
 @dataclass(frozen=True)
 class KeyAction:

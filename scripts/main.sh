@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set everything up, collect a small demonstration pool (resumable), evaluate X-ICM on the
 # smoke benchmark and print the success table. Extra args are Hydra overrides for xicm-eval,
-# e.g. `bash scripts/main.sh llm=gemma3_270m prompt.k=2`.
+# e.g. `bash scripts/main.sh llm=gemma3_270m policy.k=2`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh

@@ -1,11 +1,17 @@
-"""The X-ICM loop on the real simulator: success, and every failure kind ending one episode."""
+"""The X-ICM policy on the real simulator, built by its plugin factory and by hand: success,
+and every failure kind ending one episode."""
 
 import pytest
+from omegaconf import OmegaConf
 
-from xicm.core.agent import XICMAgent
-from xicm.core.errors import LLMError
-from xicm.core.interfaces import LLM, Detector
+from xicm.core.encoding import format_actions
+from xicm.core.episode import run_episode
+from xicm.core.errors import ConfigError, LLMError
+from xicm.core.interfaces import LLM, Detector, PolicyContext
 from xicm.core.plugins import get_registry
+from xicm.plugins.llms.nearest_demo import reanchor
+from xicm.plugins.policies.xicm import create_xicm_policy
+from xicm.plugins.policies.xicm.policy import XICMPolicy
 
 
 class ScriptedReply(LLM):
@@ -30,23 +36,73 @@ class ServerDown(LLM):
         raise LLMError("the server at http://127.0.0.1:9/v1 did not answer")
 
 
+class Recording(LLM):
+    """Wraps an LLM and keeps every prompt it was asked."""
+
+    def __init__(self, inner):
+        self.inner, self.prompts = inner, []
+
+    def complete(self, prompt):
+        self.prompts.append(prompt)
+        return self.inner.complete(prompt)
+
+
 class BrokenDetector(Detector):
     def detect(self, obs, names):
         raise RuntimeError("camera unplugged")
 
 
+class Episodes:
+    """A policy on the session simulator: `.run(task, seed, episode)` through core.episode."""
+
+    def __init__(self, sim, policy, max_steps=25):
+        self.sim, self.policy, self.max_steps = sim, policy, max_steps
+
+    def run_episode(self, task, seed, episode):
+        return run_episode(self.sim, self.policy, task, seed, episode, self.max_steps)
+
+
 def _agent(sim, pool, llm, detector=None, k=2, max_steps=25):
+    """XICMPolicy assembled by hand, for test LLMs and detectors that are not registered plugins."""
     reg = get_registry()
-    return XICMAgent(
-        simulator=sim,
+    policy = XICMPolicy(
         detector=detector or reg.create("detector", {"name": "oracle"}),
         retriever=reg.create("retriever", {"name": "random"}, encoder=None),
         prompt_builder=reg.create("prompt", {"name": "xicm"}),
         llm=llm,
         pool=pool,
+        workspace=sim.workspace,
         k=k,
-        max_steps=max_steps,
     )
+    return Episodes(sim, policy, max_steps)
+
+
+def _factory_config(**groups):
+    """The config groups create_xicm_policy reads (what `xicm-eval` composes)."""
+    base = {
+        "detector": {"name": "oracle"},
+        "encoder": {"name": None},
+        "retriever": {"name": "random"},
+        "prompt": {"name": "xicm"},
+        "llm": {"name": "nearest_demo"},
+        "llm_cache": {"enabled": False, "path": "/nonexistent/responses.sqlite"},
+    }
+    return OmegaConf.create({**base, **groups})
+
+
+def test_the_factory_builds_the_configured_parts_over_the_pool_file(sim, smoke_pool):
+    path, pool = smoke_pool
+    cfg = _factory_config(encoder={"name": "minilm"}, retriever={"name": "similarity"})
+    policy = create_xicm_policy(3, 2, str(path), ["push_buttons"], PolicyContext(cfg, get_registry(), sim))
+    assert (policy.k, policy.max_llm_calls, type(policy.llm).__name__) == (3, 2, "NearestDemoLLM")
+    assert {d.task for d in policy.pool} == {"push_buttons"} and len(policy.pool) == 2
+    assert policy.run_metadata() == {"pool": str(path), "pool_size": 2}
+
+
+def test_the_factory_refuses_a_pool_without_the_asked_tasks(sim, smoke_pool):
+    path, _ = smoke_pool
+    with pytest.raises(ConfigError, match=r"holds no demos of \['close_jar'\]; collect them first"):
+        create_xicm_policy(2, None, str(path), ["close_jar"], PolicyContext(_factory_config(), get_registry(), sim))
 
 
 def test_the_whole_loop_replays_each_demo_on_its_own_scene(sim, smoke_pool):
@@ -63,14 +119,19 @@ def test_the_whole_loop_replays_each_demo_on_its_own_scene(sim, smoke_pool):
     assert not failed
 
 
-def test_nearest_demo_on_new_scenes_reports_each_outcome(sim, smoke_pool):
-    _, pool = smoke_pool
-    reg = get_registry()
-    agent = _agent(sim, pool, reg.create("llm", {"name": "nearest_demo"}), k=1)
+def test_factory_built_policy_retrieves_by_language_and_replays_the_demo_reanchored(sim, smoke_pool):
+    """On new push_buttons scenes, language retrieval ranks a push_buttons demo first (the pool
+    also holds open_drawer demos), and nearest_demo's first reply is exactly that demo's key
+    actions moved onto the new scene's objects."""
+    path, pool = smoke_pool
+    cfg = _factory_config(encoder={"name": "minilm"}, retriever={"name": "similarity"})
+    policy = create_xicm_policy(1, 1, str(path), ["open_drawer", "push_buttons"], PolicyContext(cfg, get_registry(), sim))
+    policy.llm = Recording(policy.llm)
     for e in range(2):
-        r = agent.run_episode("push_buttons", seed=0, episode=e)
-        assert r.retrieved and r.retrieved[0].startswith(("push_buttons/", "open_drawer/"))
-        assert r.success or r.error_kind in ("max_steps", "unreachable"), r
+        r = run_episode(sim, policy, "push_buttons", 0, e)
+        prompt = policy.llm.prompts[-1]
+        assert [d.demo_id for d in prompt.demos] == r.retrieved and r.retrieved[0].startswith("push_buttons/")
+        assert r.responses == [format_actions(reanchor(prompt.demos[0], prompt.query), sim.workspace)]
 
 
 @pytest.mark.parametrize(

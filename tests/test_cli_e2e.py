@@ -29,7 +29,7 @@ def workdir(tmp_path_factory):
 
 def test_eval_writes_results_and_resumes(workdir):
     work, common = workdir
-    args = ["benchmark=smoke", "episodes=1", "prompt.k=2", "hydra.run.dir=run1", *common]
+    args = ["benchmark=smoke", "episodes=1", "policy.k=2", "hydra.run.dir=run1", *common]
     first = _run("xicm-eval", *args, cwd=work)
     assert "**All**" in first.stdout and "| close_microwave | level1 |" in first.stdout
     run = work / "run1"
@@ -60,12 +60,12 @@ def test_eval_writes_results_and_resumes(workdir):
 def test_multirun_sweeps_retriever_and_k(workdir):
     work, common = workdir
     _run(
-        "xicm-eval", "-m", "retriever=random,language", "prompt.k=1,2", "benchmark.tasks=[push_buttons]",
+        "xicm-eval", "-m", "retriever=random,language", "policy.k=1,2", "benchmark.tasks=[push_buttons]",
         "episodes=1", "hydra.sweep.dir=sweep", *common, cwd=work,
     )
     jobs = sorted(p.parent.name for p in (work / "sweep").rglob("summary.json"))
     assert len(jobs) == 4, jobs
-    assert any("retriever=language" in j and "prompt.k=2" in j for j in jobs)
+    assert any("retriever=language" in j and "policy.k=2" in j for j in jobs)
 
 
 def test_smoke_experiment_then_one_sweep_report(workdir):
@@ -115,7 +115,7 @@ def test_train_dynamics_then_a_selection_sweep_shares_one_feature_cache(workdir)
     )
     assert "step 6/6" in out.stdout and (work / "data" / "dynamics" / "smoke" / "final" / "unet" / "config.json").exists()
     _run(
-        "xicm-eval", "-m", "retriever=dynamics", "prompt.k=1,2", "encoder.steps=2", "benchmark.tasks=[close_microwave]",
+        "xicm-eval", "-m", "retriever=dynamics", "policy.k=1,2", "encoder.steps=2", "benchmark.tasks=[close_microwave]",
         "episodes=1", "hydra.sweep.dir=dyn", *common, cwd=work,
     )
     rows = [json.loads(p.read_text()) for p in sorted((work / "dyn").rglob("episodes.jsonl"))]

@@ -31,7 +31,7 @@ def test_every_option_of_every_group_composes_and_names_a_registered_plugin(grou
             continue
         name = cfg[group].name
         if name is not None:
-            registry.get(build.GROUP_KINDS[group], name)
+            registry.get(group, name)
 
 
 def test_retriever_choice_sets_its_encoder():
@@ -42,13 +42,13 @@ def test_retriever_choice_sets_its_encoder():
 def test_unknown_plugin_name_stops_with_the_list(tmp_path):
     cfg = _compose(["llm.name=nope"])
     with pytest.raises(UnknownPluginError, match="unknown llm 'nope'; available: .*nearest_demo"):
-        build.check_names(cfg, get_registry(), list(cfg.benchmark.tasks))
+        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
 def test_unknown_task_stops_with_the_list():
     cfg = _compose(["benchmark.tasks=[open_drawer,make_coffee]"])
     with pytest.raises(ConfigError, match="unknown task 'make_coffee'; available: .*open_drawer"):
-        build.check_names(cfg, get_registry(), list(cfg.benchmark.tasks))
+        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
 @pytest.mark.parametrize("value, workers", [("auto", None), (1, 1), ("3", 3)])
@@ -66,9 +66,10 @@ def test_bad_collect_workers_is_one_sentence(value):
         resolve_workers(value)
 
 
-def test_missing_pool_says_what_to_run(tmp_path):
-    with pytest.raises(ConfigError, match="run `xicm-collect"):
-        build.check_pool(tmp_path / "pools" / "seen.h5")
+def test_missing_pool_says_what_to_run_before_anything_is_built(tmp_path):
+    cfg = _compose([f"paths.data={tmp_path}"])
+    with pytest.raises(ConfigError, match=f"no demonstration pool at {tmp_path}/pools/smoke.h5; run `xicm-collect"):
+        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
 def _cli(*args, cwd):
@@ -117,7 +118,7 @@ def test_cli_malformed_override_is_reported(tmp_path):
 def test_unknown_policy_stops_with_the_list():
     cfg = _compose(["policy.name=greedy"])
     with pytest.raises(UnknownPluginError, match="unknown policy 'greedy'; available: oracle, xicm"):
-        build.check_names(cfg, get_registry(), list(cfg.benchmark.tasks))
+        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
 def test_long_sweep_folder_names_are_cut_and_hashed():
@@ -126,7 +127,7 @@ def test_long_sweep_folder_names_are_cut_and_hashed():
     long = "benchmark.tasks=[" + ",".join(f"task_number_{i}" for i in range(40)) + "],detector.noise_cm="
     a, b = short_name(long + "0", FOLDER_NAME_LIMIT), short_name(long + "8", FOLDER_NAME_LIMIT)
     assert len(a) == 131 and a != b and a.startswith(long[:120])
-    assert short_name("prompt.k=6", FOLDER_NAME_LIMIT) == "prompt.k=6"
+    assert short_name("policy.k=6", FOLDER_NAME_LIMIT) == "policy.k=6"
 
 
 @pytest.mark.parametrize("name", sorted(p.stem for p in (CONF / "experiment").glob("*.yaml")))

@@ -41,7 +41,7 @@ def test_an_episode_runs_with_the_plugin_selected_from_the_command_line(installe
     out_dir = tmp_path / "run"
     out = subprocess.run(
         [str(BIN / "xicm-eval"), "retriever=object_overlap", "retriever.instruction_weight=0.5", "benchmark=smoke",
-         "benchmark.tasks=[close_microwave]", "episodes=1", "prompt.k=2", f"pool_path={pool_path}",
+         "benchmark.tasks=[close_microwave]", "episodes=1", "policy.k=2", f"pool_path={pool_path}",
          f"hydra.run.dir={out_dir}", "progress=false"],
         capture_output=True, text=True, env=installed, timeout=600, cwd=tmp_path,
     )

@@ -24,9 +24,11 @@ def test_conf_yaml_files_are_covered_by_package_data():
     assert yamls and yamls == covered
 
 
-def test_entry_points_name_existing_modules():
-    eps = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["entry-points"]["xicm"]
-    for module in eps.values():
+def test_default_plugins_name_existing_modules_and_are_not_also_entry_points():
+    from xicm.core.plugins import DEFAULT_PLUGINS
+
+    assert "entry-points" not in tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    for module in DEFAULT_PLUGINS.values():
         rel = module.removeprefix("xicm.").replace(".", "/")
         assert (ROOT / f"{rel}.py").exists() or (ROOT / rel / "__init__.py").exists(), module
 

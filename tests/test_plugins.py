@@ -99,7 +99,7 @@ def test_xicm_plugins_command_prints_every_plugin():
 
 def test_core_and_plugin_modules_import_no_heavy_library():
     code = (
-        "import sys, xicm.core.cli, xicm.core.agent, xicm.core.eval_job, xicm.core.plugins as p;"
+        "import sys, xicm.core.cli, xicm.core.build, xicm.core.eval_job, xicm.core.plugins as p;"
         "p.get_registry();"
         "heavy = [m for m in ('torch', 'sapien', 'transformers', 'wandb', 'diffusers', 'sentence_transformers') if m in sys.modules];"
         "print(','.join(heavy))"
@@ -188,3 +188,14 @@ def test_load_and_disable_lists_choose_the_plugins(third_party):
     third_party.setenv("XICM_DISABLE_PLUGINS", "broken, raises, nearest_demo")
     reg = plugins.Registry(plugins.make_plugin_manager())
     assert reg.failed == {} and "parrot" in reg.names("llm") and "nearest_demo" not in reg.names("llm")
+
+
+def test_a_third_party_plugin_reusing_a_built_in_name_is_left_out_and_named(tmp_path, monkeypatch):
+    source = "from xicm.core.hookspecs import hookimpl\n@hookimpl\ndef register_llms(register):\n    register('clash', object)\n"
+    _fake_distribution(tmp_path, "xicm_clash", "xicm_clash", source, {"sapien": "xicm_clash"})
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for var in ("XICM_LOAD_PLUGINS", "XICM_DISABLE_PLUGINS"):
+        monkeypatch.delenv(var, raising=False)
+    reg = plugins.Registry(plugins.make_plugin_manager())
+    assert reg.failed == {"sapien": "a second plugin is called 'sapien' (only the first was loaded)"}
+    assert "clash" not in reg.names("llm") and "sapien" in reg.names("simulator")

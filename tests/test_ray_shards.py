@@ -4,6 +4,7 @@ The slow tests start a local Ray cluster on this machine (2 actors, half a CPU e
 dashboard) through the real `xicm-eval` console script."""
 
 import json
+import os
 import re
 import socket
 import subprocess
@@ -124,7 +125,7 @@ def test_ray_oracle_run_matches_a_local_run_and_resumes_a_partial_file(tmp_path)
 @pytest.mark.slow
 def test_ray_nearest_demo_run_matches_a_local_run(smoke_pool, tmp_path):
     pool_path, _ = smoke_pool
-    common = ["llm=nearest_demo", "retriever=random", "prompt.k=2", "benchmark=smoke", "episodes=1",
+    common = ["llm=nearest_demo", "retriever=random", "policy.k=2", "benchmark=smoke", "episodes=1",
               f"pool_path={pool_path}", "progress=false", "tracking.mode=disabled", f"paths.cache={tmp_path}/cache"]
     _eval(*common, "hydra.run.dir=local", cwd=tmp_path)
     output = _eval(*common, *RAY, "hydra.run.dir=sharded", cwd=tmp_path)
@@ -136,3 +137,40 @@ def test_ray_nearest_demo_run_matches_a_local_run(smoke_pool, tmp_path):
     assert [r["responses"][0] for r in sharded] == [r["responses"][0] for r in local]
     assert [tuple(json.dumps(r[k]) for k in fields) for r in sharded] == [tuple(json.dumps(r[k]) for k in fields) for r in local]
     assert len(_worker_counts(output)) == 2
+
+
+PID_POLICY = '''import os
+from xicm.core.hookspecs import hookimpl
+from xicm.plugins.policies.oracle import OraclePolicy
+
+def create(context, **options):
+    with open(os.environ["XICM_TEST_PID_FILE"], "a") as f:
+        f.write(f"{os.getpid()}\\n")
+    return OraclePolicy(context.simulator)
+
+@hookimpl
+def register_policies(register):
+    register("pid_oracle", create)
+'''
+
+
+@pytest.mark.slow
+def test_the_ray_driver_builds_no_policy_only_its_workers_do(tmp_path):
+    """A throwaway policy plugin notes the pid of every process that builds it."""
+    site = tmp_path / "site"
+    info = site / "xicm_pid_policy-0.1.dist-info"
+    info.mkdir(parents=True)
+    (site / "xicm_pid_policy.py").write_text(PID_POLICY)
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: xicm_pid_policy\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[xicm]\npid_policy = xicm_pid_policy\n")
+    pid_file = tmp_path / "pids.txt"
+    env = {**os.environ, "XICM_TEST_PID_FILE": str(pid_file),
+           "PYTHONPATH": os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")]))}
+    args = [str(BIN / "xicm-eval"), "policy.name=pid_oracle", "benchmark=smoke", "episodes=1", "progress=false",
+            "tracking.mode=disabled", f"paths.data={tmp_path}/nothing", "hydra.run.dir=run", *RAY]
+    driver = subprocess.Popen(args, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    output, _ = driver.communicate(timeout=900)
+    assert driver.returncode == 0, output[-3000:]
+    built_in = [int(line) for line in pid_file.read_text().split()]
+    workers = set(_worker_counts(output))
+    assert sorted(built_in) == sorted(workers) and driver.pid not in built_in

@@ -43,8 +43,8 @@ def test_layout_of_per_episode_files(tmp_path):
 
 def test_discovery_finds_runs_and_only_runs(tmp_path):
     top = make_run(tmp_path)  # the folder given can itself be a run
-    nested = make_run(tmp_path / "multirun" / "prompt.k=1")
-    deeper = make_run(tmp_path / "multirun" / "prompt.k=2" / "again")
+    nested = make_run(tmp_path / "multirun" / "policy.k=1")
+    deeper = make_run(tmp_path / "multirun" / "policy.k=2" / "again")
     (tmp_path / "only_rows").mkdir()
     (tmp_path / "only_rows" / "episodes.jsonl").write_text("")  # e.g. a merge target never finished
     (tmp_path / "only_meta").mkdir()
@@ -99,9 +99,9 @@ def test_override_keys_and_prefix_matching():
 # without deciding whether it belongs to a run's identity.
 SAMPLE_OVERRIDES = {
     "simulator": "simulator.image_size=96", "detector": "detector=noisy_oracle", "encoder": "encoder=dynamics",
-    "retriever": "retriever=random", "prompt": "prompt.k=3", "llm": "llm=openai", "policy": "policy=oracle",
+    "retriever": "retriever=random", "prompt": "prompt.name=mine", "llm": "llm=openai", "policy": "policy.k=3",
     "benchmark": "benchmark.tasks=[push_buttons]", "seeds": "seeds=[1]", "episodes": "episodes=2",
-    "max_steps": "max_steps=5", "max_llm_calls": "max_llm_calls=4", "pool_path": "pool_path=/pools/other.h5",
+    "max_steps": "max_steps=5", "pool_path": "pool_path=/pools/other.h5",
     "paths": "paths.data=/elsewhere", "collect": "collect.workers=1", "llm_cache": "llm_cache.enabled=false",
     "tracking": "tracking.mode=disabled", "video": "video.fps=10", "transcripts": "transcripts=false",
     "shards": "shards.workers=3", "progress": "progress=false", "run_name": "run_name=mine",

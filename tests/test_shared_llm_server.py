@@ -61,7 +61,7 @@ def test_ray_workers_share_one_openai_server(server, smoke_pool, tmp_path):
     proc = subprocess.Popen(
         [
             str(BIN / "xicm-eval"), "llm=openai", f"llm.base_url={server.base_url}", "llm.model=test-model",
-            "llm.retries=0", "llm.timeout_s=60", "llm_cache.enabled=false", "retriever=random", "prompt.k=2",
+            "llm.retries=0", "llm.timeout_s=60", "llm_cache.enabled=false", "retriever=random", "policy.k=2",
             "benchmark=smoke", "episodes=2", "max_steps=2", f"pool_path={pool_path}",
             "shards.backend=ray", "shards.workers=2", "shards.cpus_per_worker=0.5",
             "hydra.run.dir=run", "progress=false", "tracking.mode=disabled",

@@ -69,8 +69,8 @@ def test_group_is_the_experiment_preset_else_the_benchmark(overrides, group):
 
 
 def test_job_overrides_leave_out_the_bookkeeping_keys():
-    _hydra_cfg(["+experiment=smoke", "prompt.k=6", "progress=false", "paths.data=/tmp/x", "tracking.mode=offline"])
-    assert current_job_overrides() == ["+experiment=smoke", "prompt.k=6"]
+    _hydra_cfg(["+experiment=smoke", "policy.k=6", "progress=false", "paths.data=/tmp/x", "tracking.mode=offline"])
+    assert current_job_overrides() == ["+experiment=smoke", "policy.k=6"]
 
 
 def test_offline_run_records_group_job_type_and_tags(tmp_path, monkeypatch):
@@ -78,23 +78,23 @@ def test_offline_run_records_group_job_type_and_tags(tmp_path, monkeypatch):
     long_override = "benchmark.tasks=[" + ",".join(f"task_{i}" for i in range(20)) + "]"
     tracker = Tracker(
         mode="offline", project="xicm-test", run_name="ablation_k-job", out_dir=str(tmp_path), config={"k": 6},
-        tags=["prompt.k=6", long_override], group="ablation_k", job_type="prompt.k=6",
+        tags=["policy.k=6", long_override], group="ablation_k", job_type="policy.k=6",
     )
     tracker.log({"success": 1})
     assert tracker.finish().startswith("wandb (offline): ")
     run = offline_run_record(tmp_path)
-    assert (run.run_group, run.job_type, run.display_name) == ("ablation_k", "prompt.k=6", "ablation_k-job")
+    assert (run.run_group, run.job_type, run.display_name) == ("ablation_k", "policy.k=6", "ablation_k-job")
     label = short_name(long_override, WANDB_LABEL_LIMIT)
-    assert list(run.tags) == ["prompt.k=6", label]
+    assert list(run.tags) == ["policy.k=6", label]
     assert len(label) == 64 and label != short_name(long_override + "x", WANDB_LABEL_LIMIT)
 
 
 def test_for_job_uses_the_config_and_the_hydra_overrides(tmp_path, monkeypatch):
     monkeypatch.setenv("WANDB_MODE", "offline")
-    cfg = _hydra_cfg(["+experiment=ablation_k", "prompt.k=6", "progress=false"])
+    cfg = _hydra_cfg(["+experiment=ablation_k", "policy.k=6", "progress=false"])
     Tracker.for_job(cfg, tmp_path, config={}).finish()
     run = offline_run_record(tmp_path)
-    assert (run.run_group, run.job_type, list(run.tags)) == ("ablation_k", "+experiment=ablation_k,prompt.k=6", ["+experiment=ablation_k", "prompt.k=6"])
+    assert (run.run_group, run.job_type, list(run.tags)) == ("ablation_k", "+experiment=ablation_k,policy.k=6", ["+experiment=ablation_k", "policy.k=6"])
     assert run.display_name == "agnostos-nearest_demo-dynamics-k6"  # run_name, as before
 
 

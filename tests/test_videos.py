@@ -12,7 +12,7 @@ import imageio.v2 as imageio
 import pytest
 
 from xicm.core import video as video_module
-from xicm.core.agent import XICMPolicy
+from xicm.plugins.policies.xicm.policy import XICMPolicy
 from xicm.core.episode import run_episode
 from xicm.core.errors import ConfigError
 from xicm.core.interfaces import LLM

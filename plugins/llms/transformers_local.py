@@ -332,7 +332,7 @@ class TransformersLocalLLM(LLM):
             return ids[len(ids) - limit:]
         raise LLMError(
             f"the prompt has {len(ids)} tokens, more than max_prompt_tokens={limit} of {self.model_label}; "
-            "use fewer demos (prompt.k), raise llm.max_prompt_tokens, or set llm.prompt_overflow: truncate_left"
+            "use fewer demos (policy.k), raise llm.max_prompt_tokens, or set llm.prompt_overflow: truncate_left"
         )
 
     def generation_kwargs(self) -> dict[str, Any]:

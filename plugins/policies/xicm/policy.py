@@ -7,15 +7,15 @@ import hashlib
 import json
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from xicm.core import parsing
-from xicm.core.episode import last_frame, run_episode
+from xicm.core.episode import last_frame
 from xicm.core.errors import EpisodeFailure, LLMError
-from xicm.core.interfaces import LLM, Detector, Policy, PromptBuilder, Retriever, Simulator
-from xicm.core.types import Demo, EpisodeResult, KeyAction, Observation, Query
+from xicm.core.interfaces import LLM, Detector, Policy, PromptBuilder, Retriever
+from xicm.core.types import Demo, KeyAction, Observation, Query
 
 
 @dataclass
@@ -28,6 +28,7 @@ class XICMPolicy(Policy):
     workspace: tuple
     k: int = 18
     max_llm_calls: int | None = None
+    pool_path: str | None = None  # where the pool came from (for run.json)
 
     def __post_init__(self) -> None:
         self._start("", np.random.default_rng(0))
@@ -76,6 +77,9 @@ class XICMPolicy(Policy):
             raise EpisodeFailure(actions.kind, actions.reason)
         return actions
 
+    def run_metadata(self) -> dict:
+        return {"pool": self.pool_path, "pool_size": len(self.pool)}
+
     def record(self) -> dict:
         return {**self._record, "timings": dict(self._timings), "transcript": list(self._calls)}
 
@@ -93,31 +97,6 @@ class XICMPolicy(Policy):
             raise EpisodeFailure(error_kind, f"{name} failed: {type(exc).__name__}: {exc} | {last_frame(exc)}") from exc
         finally:
             self._timings[name] = self._timings.get(name, 0.0) + time.perf_counter() - t0
-
-
-@dataclass
-class XICMAgent:
-    """X-ICM on one simulator: `run_episode(task, seed, episode)` (a convenience for scripts and tests)."""
-
-    simulator: Simulator
-    detector: Detector
-    retriever: Retriever
-    prompt_builder: PromptBuilder
-    llm: LLM
-    pool: list[Demo]
-    k: int = 18
-    max_steps: int = 25
-    max_llm_calls: int | None = None
-    policy: XICMPolicy = field(init=False)
-
-    def __post_init__(self) -> None:
-        self.policy = XICMPolicy(
-            self.detector, self.retriever, self.prompt_builder, self.llm, self.pool,
-            self.simulator.workspace, self.k, self.max_llm_calls,
-        )
-
-    def run_episode(self, task: str, seed: int, episode: int) -> EpisodeResult:
-        return run_episode(self.simulator, self.policy, task, seed, episode, self.max_steps)
 
 
 def prompt_hash(messages: list[dict[str, str]]) -> str:

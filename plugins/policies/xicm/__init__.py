@@ -1,0 +1,39 @@
+"""Policy `xicm`, the method: X-ICM built from the run's detector, encoder, retriever, prompt and
+LLM groups over a demonstration pool (options in conf/policy/xicm.yaml)."""
+
+from __future__ import annotations
+
+from xicm.core.hookspecs import hookimpl
+from xicm.core.interfaces import PolicyContext
+
+
+def create_xicm_policy(k: int, max_llm_calls: int | None, pool: str, pool_tasks: list[str], context: PolicyContext):
+    from . import parts
+    from .policy import XICMPolicy
+
+    cfg, registry = context.cfg, context.registry
+    demos = parts.load_demos(pool, list(pool_tasks))
+    retriever = parts.build_retriever(cfg, registry, parts.build_encoder(cfg, registry))
+    retriever.prepare(demos)
+    return XICMPolicy(
+        detector=registry.create("detector", parts.part_options(cfg, "detector")),
+        retriever=retriever,
+        prompt_builder=registry.create("prompt", parts.part_options(cfg, "prompt")),
+        llm=parts.build_llm(cfg, registry),
+        pool=demos,
+        workspace=context.simulator.workspace,
+        k=int(k),
+        max_llm_calls=max_llm_calls,
+        pool_path=str(pool),
+    )
+
+
+def check_xicm_config(cfg, registry) -> None:
+    from . import parts
+
+    parts.check_parts(cfg, registry, cfg.policy.pool)
+
+
+@hookimpl
+def register_policies(register):
+    register("xicm", create_xicm_policy, check=check_xicm_config)

@@ -1,0 +1,60 @@
+"""X-ICM's parts, built from the run's config groups: detector, encoder, retriever, prompt
+builder and LLM (behind the response cache), and the demonstration pool they select from."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from omegaconf import DictConfig, OmegaConf
+
+from xicm.core.dataset import require_pool
+from xicm.core.errors import ConfigError
+from xicm.core.plugins import Registry
+
+#: the config groups X-ICM builds its parts from (group name = plugin family)
+PART_GROUPS = ("detector", "encoder", "retriever", "prompt", "llm")
+
+
+def part_options(cfg: DictConfig, group: str) -> dict[str, Any]:
+    data = OmegaConf.to_container(cfg[group], resolve=True)
+    assert isinstance(data, dict)
+    return data
+
+
+def check_parts(cfg: DictConfig, registry: Registry, pool: str) -> None:
+    """Every part's plugin exists and the pool file is there (before anything is built)."""
+    for group in PART_GROUPS:
+        name = cfg[group].get("name")
+        if name is None and group == "encoder":  # retrievers that need no encoder
+            continue
+        registry.get(group, name)
+    require_pool(pool)
+
+
+def load_demos(path: str | Path, tasks: list[str]):
+    from xicm.core.dataset import load_pool
+
+    pool = load_pool(path, tasks=tasks, with_images=True)
+    if not pool:
+        raise ConfigError(f"the pool {path} holds no demos of {tasks}; collect them first")
+    return pool
+
+
+def build_encoder(cfg: DictConfig, registry: Registry):
+    opts = part_options(cfg, "encoder")
+    return None if opts.get("name") is None else registry.create("encoder", opts)
+
+
+def build_retriever(cfg: DictConfig, registry: Registry, encoder):
+    return registry.create("retriever", part_options(cfg, "retriever"), encoder=encoder)
+
+
+def build_llm(cfg: DictConfig, registry: Registry):
+    """The configured LLM, behind the SQLite response cache when it decodes deterministically."""
+    llm = registry.create("llm", part_options(cfg, "llm"))
+    if cfg.llm_cache.enabled and getattr(llm, "deterministic", False):
+        from xicm.core.llm_cache import CachedLLM
+
+        llm = CachedLLM(llm, cfg.llm_cache.path, enabled=True)
+    return llm
