@@ -30,7 +30,7 @@ def main() -> None:
 
     torch.set_num_threads(2)
     reg = get_registry()
-    sim = reg.create("simulator", {"name": "sapien"})
+    sim = reg.create_simulator({"name": "sapien"})
     obs = sim.reset(args.task, 0, 0)
     names = list(obs.object_names)
     with tempfile.TemporaryDirectory() as tmp:

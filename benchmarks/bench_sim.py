@@ -29,7 +29,7 @@ def physics_rate(sim, seconds: float) -> float:
 
 
 def main() -> None:
-    from xicm.plugins.simulators.sapien.simulator import SapienSimulator
+    from xicm.core.plugins import get_registry
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--image-size", type=int, default=128)
@@ -38,8 +38,9 @@ def main() -> None:
     ap.add_argument("--demos", type=int, default=5, help="demos per task")
     args = ap.parse_args()
 
+    registry = get_registry()  # imports sapien and the task classes: not part of "created in"
     t0 = time.perf_counter()
-    sim = SapienSimulator(image_size=args.image_size)
+    sim = registry.create_simulator({"name": "sapien", "image_size": args.image_size})
     t_create = time.perf_counter() - t0
     tasks = sim.task_names()
     print(f"simulator created in {t_create:.2f} s (physics {sim.controller.physics_hz:.0f} Hz, control {sim.controller.control_hz:.0f} Hz)")

@@ -35,7 +35,7 @@ def main() -> None:
     from xicm.core.plugins import get_registry
 
     reg = get_registry()
-    sim = reg.create("simulator", {"name": "sapien"})
+    sim = reg.create_simulator({"name": "sapien"})
     detector = reg.create("detector", {"name": "oracle"})
     tasks = args.tasks.split(",")
     sim.reset(tasks[0], 0, 999)  # the first render compiles shaders: keep it out of the profile

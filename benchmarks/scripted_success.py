@@ -17,7 +17,7 @@ import numpy as np
 
 def main() -> None:
     from xicm.plugins.simulators.sapien.replay import demo_key_actions, replay
-    from xicm.plugins.simulators.sapien.simulator import SapienSimulator
+    from xicm.core.plugins import get_registry
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=50, help="seeds per task (episode 0 of seeds 0..N-1)")
@@ -27,7 +27,8 @@ def main() -> None:
     parser.add_argument("--physics-hz", type=float, default=200.0)
     args = parser.parse_args()
 
-    sim = SapienSimulator(render=False, sample_variations=not args.fixed_variation, physics_hz=args.physics_hz)
+    options = {"name": "sapien", "render": False, "sample_variations": not args.fixed_variation, "physics_hz": args.physics_hz}
+    sim = get_registry().create_simulator(options)
     tasks = args.tasks or sim.task_names()
     print(f"{'task':<18} {'demo ok':>9} {'replay ok':>10} {'raw replay':>11} {'frames':>7} {'keys':>5} {'s/demo':>7}")
     for task in tasks:

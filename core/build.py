@@ -29,17 +29,20 @@ def check_run(cfg: DictConfig, registry: Registry, tasks: list[str]) -> None:
     """
     registry.get("simulator", cfg.simulator.name)
     policy = registry.get("policy", cfg.policy.name)
-    check_tasks(registry, tasks)
+    check_tasks(registry, tasks, cfg.simulator.name)
     check = policy.extra.get("check")
     if check is not None:
         check(cfg, registry)
 
 
-def check_tasks(registry: Registry, tasks: list[str]) -> None:
-    known = registry.names("task")
+def check_tasks(registry: Registry, tasks: list[str], simulator: str) -> None:
+    """Every task is registered for the chosen simulator (ConfigError naming those that are)."""
+    known = list(registry.tasks(simulator=simulator))
     unknown = [t for t in tasks if t not in known]
     if unknown:
-        raise ConfigError(f"unknown task {', '.join(repr(t) for t in unknown)}; available: {', '.join(known)}")
+        raise ConfigError(
+            f"unknown task {', '.join(repr(t) for t in unknown)} for simulator '{simulator}'; available: {', '.join(known)}"
+        )
 
 
 def task_splits(registry: Registry, tasks: list[str]) -> dict[str, str]:
@@ -66,7 +69,7 @@ class Run:
 
 
 def create_simulator(cfg: DictConfig, registry: Registry) -> Simulator:
-    return registry.create("simulator", group_options(cfg, "simulator"))
+    return registry.create_simulator(group_options(cfg, "simulator"))
 
 
 def build_run(cfg: DictConfig, registry: Registry | None = None, *, with_policy: bool = True) -> Run:

@@ -18,8 +18,8 @@ def run_collect(cfg: DictConfig) -> dict[str, tuple[int, int]]:
     tasks = list(cfg.benchmark.pool_tasks)
     if not tasks:
         raise ConfigError(f"benchmark '{cfg.benchmark.name}' lists no pool_tasks to collect")
-    build.check_tasks(registry, tasks)
     registry.get("simulator", cfg.simulator.name)
+    build.check_tasks(registry, tasks, cfg.simulator.name)
     registry.get("detector", cfg.detector.name)
 
     from xicm.core.collect import build_collector, collect, collect_parallel, collector_config

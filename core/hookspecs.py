@@ -1,9 +1,13 @@
 """The hooks a plugin may implement. Each hands the plugin a `register(name, factory)` callback.
 
 A factory is called as `factory(**options)` with the options of the chosen config (minus
-`name`); retriever factories also get `encoder=`, policy factories `context=` (a
-xicm.core.interfaces.PolicyContext: the run's config, the registry and the live simulator). It returns an instance of the matching
-class in xicm.core.interfaces (tasks: a task class of the simulator named in the call).
+`name`); simulator factories also get `tasks=` (name -> task class of every task registered
+for that simulator: Registry.create_simulator), retriever factories `encoder=`, policy
+factories `context=` (a xicm.core.interfaces.PolicyContext: the run's config, the registry
+and the live simulator). It returns an instance of the matching class in
+xicm.core.interfaces. A task is registered as a class (or a stand-in with the same
+attributes, called like it) whose `split`, `instruction` and `object_names` attributes give
+its TaskInfo; only the simulator named by `simulator=` loads it.
 """
 
 import pluggy
@@ -14,12 +18,12 @@ hookimpl = pluggy.HookimplMarker("xicm")
 
 @hookspec
 def register_simulators(register):
-    """Register simulator factories: register(name, factory)."""
+    """Register simulator factories: register(name, factory); factories receive tasks=."""
 
 
 @hookspec
 def register_tasks(register):
-    """Register tasks: register(name, task_class, simulator=name of the simulator it runs in)."""
+    """Register tasks: register(name, task_class, simulator=NAME); simulator NAME's factory receives it in tasks=."""
 
 
 @hookspec

@@ -7,11 +7,14 @@ import logging
 import os
 from dataclasses import dataclass
 from importlib import metadata
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import pluggy
 
 from xicm.core import hookspecs
+
+if TYPE_CHECKING:
+    from xicm.core.types import TaskInfo
 
 log = logging.getLogger(__name__)
 
@@ -85,6 +88,8 @@ class Registry:
 
     def _register_fn(self, kind: str, plugin_name: str):
         def register(name: str, factory: Callable[..., Any], **extra: Any) -> None:
+            if kind == "task" and not isinstance(extra.get("simulator"), str):  # fails the plugin, by name
+                raise TypeError(f"task '{name}' is registered without simulator=NAME (the simulator that loads it)")
             entries = self._entries[kind]
             if name in entries and entries[name].plugin != plugin_name:
                 raise PluginConflictError(
@@ -93,10 +98,6 @@ class Registry:
             entries[name] = Registration(name, factory, plugin_name, extra)
 
         return register
-
-    def task_info(self, name: str):
-        """A registered task's TaskInfo (name, split, instruction, object names), without a simulator."""
-        return self.get("task", name).factory.info()
 
     def names(self, kind: str) -> list[str]:
         return sorted(self._entries[kind])
@@ -110,6 +111,21 @@ class Registry:
             available = ", ".join(self.names(kind)) or "none"
             broken = "".join(f"; plugin {p} failed to load ({why})" for p, why in sorted(self.failed.items()))
             raise UnknownPluginError(f"unknown {kind} '{name}'; available: {available}{broken}") from None
+
+    def tasks(self, simulator: str) -> dict[str, Any]:
+        """The tasks registered for `simulator`: name -> task class (or a stand-in called like one), by name."""
+        entries = self._entries["task"]
+        return {n: entries[n].factory for n in sorted(entries) if entries[n].extra["simulator"] == simulator}
+
+    def task_info(self, name: str) -> TaskInfo:
+        """A registered task's name, split, instruction and object names, without building a simulator."""
+        from xicm.core.types import TaskInfo
+
+        return TaskInfo.of(name, self.get("task", name).factory)
+
+    def create_simulator(self, options: dict[str, Any]) -> Any:
+        """The simulator options['name'] names, built as factory(**options, tasks=<its registered tasks>)."""
+        return self.create("simulator", options, tasks=self.tasks(simulator=options.get("name")))
 
     def create(self, kind: str, options: dict[str, Any], **deps: Any) -> Any:
         """Build the plugin named by options['name'] with the remaining options."""

@@ -61,6 +61,16 @@ class TaskInfo:
     instruction: str
     object_names: tuple[str, ...]
 
+    @classmethod
+    def of(cls, name: str, task: Any) -> TaskInfo:
+        """The facts of a registered task class: its attributes split, instruction and object_names."""
+        missing = [a for a in ("split", "instruction", "object_names") if not hasattr(task, a)]
+        if missing:
+            from xicm.core.errors import ConfigError
+
+            raise ConfigError(f"task '{name}' has no {', '.join(missing)} (a task class declares split, instruction and object_names)")
+        return cls(name, task.split, task.instruction, tuple(task.object_names))
+
 
 @dataclass
 class StepOutcome:

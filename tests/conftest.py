@@ -14,7 +14,7 @@ os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
 def sim():
     from xicm.core.plugins import get_registry
 
-    simulator = get_registry().create("simulator", {"name": "sapien", "image_size": 128})
+    simulator = get_registry().create_simulator({"name": "sapien", "image_size": 128})
     yield simulator
     simulator.close()
 

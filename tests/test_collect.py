@@ -192,10 +192,9 @@ def test_results_out_of_order_are_committed_as_a_sequential_run_would(tmp_path):
 # ------------------------------------------------------------------ real simulator
 @pytest.fixture(scope="module")
 def sapien_pool(tmp_path_factory):
-    pytest.importorskip("sapien")
-    from xicm.plugins.simulators.sapien import create_simulator
+    from xicm.core.plugins import get_registry
 
-    sim = create_simulator()
+    sim = get_registry().create_simulator({"name": "sapien"})
     path = tmp_path_factory.mktemp("pool") / "pool.h5"
     try:
         counts = collect(sim, OracleDetector(), ["open_drawer"], 2, seed=0, out_path=path, progress=False)
@@ -228,7 +227,6 @@ def test_collect_with_the_sapien_simulator(sapien_pool):
 def test_parallel_collection_killed_then_resumed(tmp_path):
     """xicm-collect over 2 worker processes: kill -9 mid-run, no orphan workers, nothing
     half-written, and the re-run completes the pool as an uninterrupted run would."""
-    pytest.importorskip("sapien")
     import os
     import signal
     import subprocess

@@ -47,7 +47,7 @@ def test_unknown_plugin_name_stops_with_the_list(tmp_path):
 
 def test_unknown_task_stops_with_the_list():
     cfg = _compose(["benchmark.tasks=[open_drawer,make_coffee]"])
-    with pytest.raises(ConfigError, match="unknown task 'make_coffee'; available: .*open_drawer"):
+    with pytest.raises(ConfigError, match="unknown task 'make_coffee' for simulator 'sapien'; available: .*open_drawer"):
         build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 

@@ -164,10 +164,9 @@ def test_raycast_square_recovered_with_rotated_cameras():
 
 def test_sapien_frames_follow_the_opencv_pixel_convention():
     """Back-projecting a rendered SAPIEN frame with its CameraFrame reproduces SAPIEN's own points."""
-    pytest.importorskip("sapien")
-    from xicm.plugins.simulators.sapien import create_simulator
+    from xicm.core.plugins import get_registry
 
-    sim = create_simulator(cameras=["front"])
+    sim = get_registry().create_simulator({"name": "sapien", "cameras": ["front"]})
     try:
         obs = sim.reset("open_drawer", 0, 0)
         cam = sim.world.cameras.cameras["front"]  # the simulator's internals, for the reference

@@ -25,8 +25,8 @@ def installed(tmp_path_factory):
         capture_output=True, text=True, timeout=300,
     )
     assert out.returncode == 0, out.stderr[-3000:]
-    env = dict(os.environ, PYTHONPATH=str(target), WANDB_MODE="disabled")
-    return env
+    path = os.pathsep.join(p for p in (str(target), os.environ.get("PYTHONPATH")) if p)  # keep a checkout first
+    return dict(os.environ, PYTHONPATH=path, WANDB_MODE="disabled")
 
 
 def test_xicm_plugins_lists_the_installed_plugin_with_its_version(installed):

@@ -1,6 +1,7 @@
 import inspect
 import subprocess
 import sys
+from unittest import mock
 
 import pytest
 
@@ -9,6 +10,7 @@ import xicm
 from xicm.core import hookspecs, plugins
 from xicm.core.errors import ConfigError
 from xicm.core.hookspecs import hookimpl
+from xicm.core.types import TaskInfo
 
 
 class Echo:
@@ -75,6 +77,56 @@ def test_two_plugins_claiming_one_name_is_an_error():
     pm.register(Clash(), name="clash")
     with pytest.raises(plugins.PluginConflictError, match="nearest_demo"):
         plugins.Registry(pm)
+
+
+class ToyTask:
+    split, instruction, object_names = "level1", "poke the toy", ["toy"]
+
+
+class ToyPlugin:
+    """A simulator and a task of a third party, registered for each other."""
+
+    @hookimpl
+    def register_simulators(self, register):
+        register("toy_sim", lambda tasks, speed=1: mock.Mock(tasks=tasks, speed=speed))
+
+    @hookimpl
+    def register_tasks(self, register):
+        register("toy_task", ToyTask, simulator="toy_sim")
+        register("bare_task", object, simulator="toy_sim")
+
+
+def test_a_simulator_is_built_with_the_tasks_registered_for_it():
+    pm = plugins.make_plugin_manager()
+    pm.register(ToyPlugin(), name="toy")
+    reg = plugins.Registry(pm)
+    sim = reg.create_simulator({"name": "toy_sim", "speed": 2})
+    assert sim.tasks == {"bare_task": object, "toy_task": ToyTask} and sim.speed == 2
+    assert "toy_task" in reg.names("task") and "toy_task" not in reg.tasks(simulator="sapien")
+
+
+def test_task_info_reads_the_task_class_without_a_simulator():
+    pm = plugins.make_plugin_manager()
+    pm.register(ToyPlugin(), name="toy")
+    reg = plugins.Registry(pm)
+    assert reg.task_info("toy_task") == TaskInfo("toy_task", "level1", "poke the toy", ("toy",))
+    with pytest.raises(ConfigError, match=r"^task 'bare_task' has no split, instruction, object_names \(a task class"):
+        reg.task_info("bare_task")
+
+
+def test_a_task_registered_without_its_simulator_fails_its_plugin_by_name():
+    class Lost:
+        @hookimpl
+        def register_tasks(self, register):
+            register("lost_task", ToyTask)
+
+    pm = plugins.make_plugin_manager()
+    pm.register(Lost(), name="lost")
+    reg = plugins.Registry(pm)
+    assert reg.failed["lost"] == (
+        "register_tasks raised TypeError: task 'lost_task' is registered without simulator=NAME (the simulator that loads it)"
+    )
+    assert "lost_task" not in reg.names("task") and "open_drawer" in reg.names("task")
 
 
 def test_describe_plugins_gives_name_version_and_hooks(registry):

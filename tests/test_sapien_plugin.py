@@ -1,4 +1,4 @@
-"""The SAPIEN plugin module: cheap to import, registers the simulator and its tasks."""
+"""The SAPIEN plugin: cheap to import and to register, its tasks resolved through the registry."""
 
 import subprocess
 import sys
@@ -6,48 +6,63 @@ import sys
 import pytest
 
 from xicm.core import plugins
+from xicm.core.types import TaskInfo
 
 
-def test_importing_the_plugin_does_not_import_sapien():
+@pytest.fixture(scope="module")
+def registry():
+    return plugins.Registry(plugins.make_plugin_manager())
+
+
+def test_building_the_registry_imports_no_sapien_until_a_task_is_used():
     code = (
-        "import sys, xicm.plugins.simulators.sapien as p; "
-        "from xicm.plugins.simulators.sapien.tasks import TASKS; "
-        "print('sapien' in sys.modules, sorted(TASKS))"
+        "import sys, xicm.core.plugins as p; r = p.Registry(p.make_plugin_manager()); "
+        "print(len(r.tasks(simulator='sapien')), 'sapien' in sys.modules, end=' '); "
+        "r.task_info('open_drawer'); print('sapien' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.startswith("False"), out
+    assert out.split() == ["41", "False", "True"]
 
 
-def test_registry_has_simulator_and_tasks():
-    registry = plugins.Registry(plugins.make_plugin_manager())
-    assert "sapien" in registry.names("simulator")
-    from xicm.plugins.simulators.sapien.tasks import TASKS
-
-    assert {"open_drawer", "push_buttons", "close_microwave"} <= set(TASKS)
-    for name in TASKS:
-        reg = registry.get("task", name)
-        assert reg.extra == {"simulator": "sapien"}
-        assert reg.factory.info().name == name
+def test_every_builtin_task_is_registered_for_sapien(registry):
+    tasks = registry.tasks(simulator="sapien")
+    assert list(tasks) == registry.names("task") and len(tasks) == 41
+    assert {registry.get("task", name).plugin for name in tasks} == {"sapien"}
+    assert registry.tasks(simulator="another") == {}
 
 
-def test_task_table_matches_the_task_classes():
-    pytest.importorskip("sapien")
-    from xicm.plugins.simulators.sapien.tasks import TASKS
+def test_task_info_comes_from_the_task_class(registry):
+    from xicm.plugins.simulators.sapien.tasks.unseen.close_microwave import CloseMicrowave
 
-    for name, ref in TASKS.items():
-        cls = ref.load_class()
-        assert cls.info() == ref.info(), name
-        doc = cls.__module__ and __import__(cls.__module__, fromlist=["_"]).__doc__
+    info = registry.task_info("close_microwave")
+    assert info == TaskInfo("close_microwave", "level1", CloseMicrowave.instruction, CloseMicrowave.object_names)
+    assert info.instruction == "close microwave"
+    splits = [registry.task_info(name).split for name in registry.tasks(simulator="sapien")]
+    assert (splits.count("seen"), splits.count("level1"), splits.count("level2")) == (18, 13, 10)  # AGNOSTOS
+
+
+def test_each_task_module_is_named_after_its_task_and_titled_with_its_split(registry):
+    """The class holds the facts; the file name and docstring title repeat name and split."""
+    for name, task in registry.tasks(simulator="sapien").items():
+        cls = task.task_class
+        module = sys.modules[cls.__module__]
+        assert cls.name == name and module.__name__.rsplit(".", 1)[1] == name
+        level = "seen" if cls.split == "seen" else f"unseen, level {cls.split[-1]}"
+        assert module.__doc__.splitlines()[0] == f"{name} ({level}).", name
+        assert module.__name__.split(".")[-2] == level.split(",")[0], name  # tasks/seen/ or tasks/unseen/
         for part in ("Task description:", "Randomisations:", "Success conditions:"):
-            assert part in doc, f"{name}: docstring lacks '{part}'"
-    splits = {name: ref.split for name, ref in TASKS.items()}
-    assert set(splits.values()) <= {"seen", "level1", "level2"}
-    assert splits["open_drawer"] == "seen" and splits["close_microwave"] == "level1"
+            assert part in module.__doc__, f"{name}: docstring lacks '{part}'"
 
 
-def test_unknown_task_names_the_available_ones():
-    from xicm.plugins.simulators.sapien.tasks import TASKS, get_task
+def test_the_simulator_loads_only_the_tasks_it_is_given(registry):
+    from xicm.plugins.simulators.sapien.simulator import SapienSimulator
 
-    with pytest.raises(KeyError, match="unknown task 'make_tea'; available: ") as err:
-        get_task("make_tea")
-    assert str(err.value).strip("'\"").endswith("available: " + ", ".join(sorted(TASKS)))
+    sim = SapienSimulator(render=False, tasks={"drawer": registry.tasks(simulator="sapien")["open_drawer"]})
+    try:
+        assert sim.task_names() == ["drawer"] and sim.task_info("drawer").split == "seen"
+        sim.reset_state("drawer", 0, 0)
+        assert sim.task.instruction == "open the top drawer"
+        with pytest.raises(KeyError, match="unknown task 'open_drawer'; available: drawer"):
+            sim.reset_state("open_drawer", 0, 0)
+    finally:
+        sim.close()

@@ -11,17 +11,18 @@ import sys
 import numpy as np
 import pytest
 
-pytest.importorskip("sapien")
+from xicm.core.parsing import MAX_ACTIONS
+from xicm.core.plugins import get_registry
+from xicm.core.types import KeyAction
+from xicm.plugins.simulators.sapien.replay import demo_key_actions, replay
 
-from xicm.core.parsing import MAX_ACTIONS  # noqa: E402
-from xicm.core.types import KeyAction  # noqa: E402
-from xicm.plugins.simulators.sapien.replay import demo_key_actions, replay  # noqa: E402
-from xicm.plugins.simulators.sapien.tasks import TASKS as TASK_TABLE  # noqa: E402
-
-TASKS = list(TASK_TABLE)  # every registered task gets the generic tests
+TASKS = list(get_registry().tasks(simulator="sapien"))  # every task registered for SAPIEN gets the generic tests
 # Free objects settle for a few physics steps at reset; PhysX's solver caches make those
 # steps repeat to ~1e-4 m (not bit-exactly) once the scene has run other episodes.
 SETTLE_TOL = 1e-3
+# unplug_charger's charger rests wedged in its socket: its settle repeats only to ~1e-3
+# (1.1e-3 in a quaternion component measured after the other tasks' episodes in name order).
+SETTLE_TOL_BY_TASK = {"unplug_charger": 2e-3}
 
 
 def scene_state(sim) -> np.ndarray:
@@ -56,8 +57,8 @@ def test_seeded_reset_is_reproducible(sim, task):
 def test_same_seed_gives_the_same_scene_in_another_process(sim):
     code = (
         "import json, numpy as np\n"
-        "from xicm.plugins.simulators.sapien.simulator import SapienSimulator\n"
-        "sim = SapienSimulator(render=False)\n"
+        "from xicm.core.plugins import get_registry\n"
+        "sim = get_registry().create_simulator({'name': 'sapien', 'render': False})\n"
         "out = {}\n"
         f"for task in {TASKS!r}:\n"
         "    sim.reset_state(task, 7, 0)\n"
@@ -70,7 +71,8 @@ def test_same_seed_gives_the_same_scene_in_another_process(sim):
     theirs = json.loads(run.stdout.strip().splitlines()[-1])
     for task in TASKS:
         sim.reset_state(task, 7, 0)
-        np.testing.assert_allclose(np.concatenate(theirs[task]), scene_state(sim), rtol=0, atol=SETTLE_TOL)
+        tol = SETTLE_TOL_BY_TASK.get(task, SETTLE_TOL)
+        np.testing.assert_allclose(np.concatenate(theirs[task]), scene_state(sim), rtol=0, atol=tol, err_msg=task)
 
 
 # ------------------------------------------------------------------ success checks
@@ -178,7 +180,7 @@ def test_unreachable_pose_is_reported_not_raised(sim, position, quat, why):
 def test_execute_without_a_task_is_a_sim_error():
     from xicm.plugins.simulators.sapien.simulator import SapienSimulator
 
-    fresh = SapienSimulator(render=False)
+    fresh = SapienSimulator(render=False, tasks={})
     outcome = fresh.execute(KeyAction((0.2, 0.0, 1.0), (0, 1, 0, 0), True))
     assert not outcome.ok and outcome.error_kind == "sim_error"
     assert "reset" in outcome.error_message

@@ -1,16 +1,16 @@
 """SAPIEN simulator plugin: AGNOSTOS-style tabletop tasks with a Franka Panda.
 
-Importing this module is cheap: sapien is imported by the factory and by the task modules,
-which are loaded only when a simulator is created or a task class is asked for.
+Importing this module and building the registry are cheap: sapien is imported by the
+factory and by a task's module, which is loaded on the task's first use (tasks.LazyTask).
 """
 
 from xicm.core.hookspecs import hookimpl
 
-from .tasks import TASKS
+from .tasks import builtin_tasks
 
 
 def create_simulator(**options):
-    """Build a SapienSimulator (imports sapien)."""
+    """Build a SapienSimulator (imports sapien); options include tasks= (see Registry.create_simulator)."""
     from .simulator import SapienSimulator
 
     return SapienSimulator(**options)
@@ -23,5 +23,5 @@ def register_simulators(register):
 
 @hookimpl
 def register_tasks(register):
-    for name, ref in TASKS.items():
-        register(name, ref, simulator="sapien")
+    for name, task in builtin_tasks().items():
+        register(name, task, simulator="sapien")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import time
+from typing import Callable, Mapping
 
 import numpy as np
 import sapien
@@ -15,7 +15,7 @@ from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
 from .objects import ObjectSet
 from .scene import TABLE_TOP_Z, WORKSPACE, World
-from .tasks import TASKS, get_task
+from .task_base import Task
 
 
 class SapienSimulator(Simulator):
@@ -30,6 +30,8 @@ class SapienSimulator(Simulator):
             (False: always variation 0, what the unseen tasks are evaluated on).
         render: False builds a physics-only simulator (observe() is then unavailable).
         lin_speed, joint_speed: TCP (m/s) and joint (rad/s) speed limits of a move.
+        tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
+            those registered for simulator "sapien", handed over by Registry.create_simulator.
     """
 
     workspace = WORKSPACE
@@ -44,6 +46,8 @@ class SapienSimulator(Simulator):
         render: bool = True,
         lin_speed: float = 0.35,
         joint_speed: float = 1.3,
+        *,
+        tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
         if not isinstance(image_size, int):  # [height, width] (a list, tuple or OmegaConf ListConfig)
             image_size = tuple(int(v) for v in image_size)
@@ -59,17 +63,23 @@ class SapienSimulator(Simulator):
             MotionLimits(lin_speed=lin_speed, joint_speed=joint_speed),
         )
         self.sample_variations = bool(sample_variations)
+        self.tasks = dict(tasks)
         self.task = None
         self.task_name: str | None = None
         self.seed = self.episode = None
-        self.timings: dict[str, float] = {}
 
     # --- catalogue -------------------------------------------------------------------------
     def task_names(self) -> list[str]:
-        return sorted(TASKS)
+        return sorted(self.tasks)
 
     def task_info(self, task: str) -> TaskInfo:
-        return get_task(task).info()
+        return TaskInfo.of(task, self._task_class(task))
+
+    def _task_class(self, task: str) -> Callable[[World, ObjectSet], Task]:
+        try:
+            return self.tasks[task]
+        except KeyError:
+            raise KeyError(f"unknown task '{task}'; available: {', '.join(sorted(self.tasks))}") from None
 
     # --- episodes --------------------------------------------------------------------------
     def reset(self, task: str, seed: int, episode: int) -> Observation:
@@ -78,8 +88,7 @@ class SapienSimulator(Simulator):
 
     def reset_state(self, task: str, seed: int, episode: int) -> None:
         """reset() without rendering (physics-only work such as collecting trajectories)."""
-        t0 = time.perf_counter()
-        cls = get_task(task).load_class()
+        cls = self._task_class(task)
         self.objects.clear()
         self.robot.reset()
         self.task = cls(self.world, self.objects)
@@ -93,7 +102,6 @@ class SapienSimulator(Simulator):
             self.world.scene.step()
         self.robot.reset()
         self.controller.reset()
-        self.timings["reset"] = time.perf_counter() - t0
 
     def _require_task(self) -> None:
         if self.task is None:
@@ -112,9 +120,7 @@ class SapienSimulator(Simulator):
 
     def observe(self, cameras=None) -> Observation:
         self._require_task()
-        t0 = time.perf_counter()
         frames = self.world.render(None if cameras is None else [str(c) for c in cameras])
-        self.timings["render"] = time.perf_counter() - t0
         return Observation(
             instruction=self.task.episode_instruction,
             cameras=frames,

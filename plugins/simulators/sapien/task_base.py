@@ -15,7 +15,7 @@ from typing import ClassVar, Iterator
 import numpy as np
 import sapien
 
-from xicm.core.types import KeyAction, TaskInfo
+from xicm.core.types import KeyAction
 
 from .objects import ObjectSet
 from .robot import GRIPPER_DOWN_WXYZ
@@ -51,6 +51,10 @@ def wrist_friendly(quat_wxyz) -> np.ndarray:
 
 
 class Task(ABC):
+    """A task's class attributes are its only record of name, split, instruction and objects:
+    the registry reads them (xicm.core.types.TaskInfo.of) without building a simulator."""
+
+    #: the registered name (a built-in task's module is named after it)
     name: ClassVar[str]
     split: ClassVar[str]  # 'seen', 'level1' or 'level2'
     #: instruction of variation 0 (what unseen tasks are evaluated on)
@@ -63,10 +67,6 @@ class Task(ABC):
         self.objects = objects
         self.variation = 0
         self.episode_instruction = self.instruction
-
-    @classmethod
-    def info(cls) -> TaskInfo:
-        return TaskInfo(cls.name, cls.split, cls.instruction, tuple(cls.object_names))
 
     # --- to implement ----------------------------------------------------------------------
     @abstractmethod

@@ -1,22 +1,18 @@
-"""Task-specific checks of the unseen SAPIEN tasks close_fridge, close_laptop_lid,
-toilet_seat_down, lamp_off, lamp_on and open_grill: a plausible but wrong action is not a success.
+"""SAPIEN tasks that swing a door or lid on a hinge or lift a lid off (close_fridge,
+close_laptop_lid, toilet_seat_down, open_grill, take_lid_off_saucepan): moved only part of the
+way, or let fall back, is not a success.
 
-Each test drives the robot with the task's own pose helpers (computed from the true state) to
-a half-done outcome and checks that the success test says no.
+Each test drives the robot with the task's own pose helpers or demonstrator (computed from the
+true state) to a half-done outcome and checks that the success test says no.
 """
 
 import sys
 
 import numpy as np
-import pytest
+from task_demos import go, moved, run_demo
 
-pytest.importorskip("sapien")
-
-from xicm.plugins.simulators.sapien.task_base import lid_push_point  # noqa: E402
-
-
-def go(sim, action) -> None:
-    assert sim.execute(action).ok
+from xicm.plugins.simulators.sapien.task_base import lid_push_point
+from xicm.plugins.simulators.sapien.tasks.unseen import open_grill, take_lid_off_saucepan
 
 
 def test_close_fridge_door_pushed_only_a_little_is_not_a_success(sim):
@@ -99,60 +95,7 @@ def test_toilet_seat_success_needs_it_lowered_by_1_7_rad(sim):
     assert sim.is_success()
 
 
-def _press(sim, task, depth: float) -> float:
-    """Press the lamp button with the closed fingertips `depth` metres in, then come back up;
-    returns how far the button went in."""
-    from xicm.plugins.simulators.sapien.tasks.unseen import lamp_off
-
-    root = task.lamp.get_root_pose()
-    demo = list(task.demonstration())
-    top = task.world_point(root, [lamp_off.BUTTON_X, 0, lamp_off.BASE_H + lamp_off.CAP_OUT])
-    press = top + [0.0, 0.0, lamp_off.FINGERTIP - depth]
-    go(sim, task.key(press + [0, 0, 0.08], demo[0].quat_wxyz, False))
-    go(sim, task.key(press, demo[0].quat_wxyz, False))
-    pressed = task.depth()
-    go(sim, task.key(press + [0, 0, 0.08], demo[0].quat_wxyz, False))
-    return pressed
-
-
-@pytest.mark.parametrize("name", ["lamp_off", "lamp_on"])
-def test_lamp_button_touched_but_not_pressed_enough_is_not_a_success(sim, name):
-    sim.reset_state(name, 6, 0)
-    task = sim.task
-    lit = task.lit
-    pressed = _press(sim, task, 0.0015)
-    assert 0.0 < pressed < 0.003
-    assert task.lit == lit and not sim.is_success()
-    _press(sim, task, 0.006)  # a real press toggles the light
-    assert task.lit != lit and sim.is_success()
-
-
-@pytest.mark.parametrize("name", ["lamp_off", "lamp_on"])
-def test_lamp_pressed_twice_is_back_where_it_started(sim, name):
-    sim.reset_state(name, 7, 0)
-    task = sim.task
-    lit = task.lit
-    assert lit == (name == "lamp_off")
-    _press(sim, task, 0.006)
-    assert task.lit != lit and sim.is_success()
-    _press(sim, task, 0.006)
-    assert task.presses == 2 and task.lit == lit
-    assert not sim.is_success()
-
-
-def test_lamp_light_shows_on_the_bulb(sim):
-    sim.reset_state("lamp_on", 8, 0)
-    task = sim.task
-    assert np.allclose(task.bulb_look.emission, 0.0)
-    for action in task.demonstration():
-        go(sim, action)
-    assert sim.is_success() and task.lit
-    assert np.max(task.bulb_look.emission[:3]) > 0.5
-
-
 def test_grill_lid_lifted_then_released_is_not_a_success(sim):
-    from xicm.plugins.simulators.sapien.tasks.unseen import open_grill
-
     sim.reset_state("open_grill", 9, 0)
     task = sim.task
     actions = list(task.demonstration())
@@ -174,7 +117,29 @@ def test_grill_lid_lifted_then_released_is_not_a_success(sim):
 def test_grill_opened_and_held_is_a_success(sim):
     sim.reset_state("open_grill", 10, 0)
     task = sim.task
-    for action in task.demonstration():
-        go(sim, action)
+    run_demo(sim)
     assert task.angle() > np.deg2rad(55) and task.grasped()
     assert sim.is_success()
+
+
+def test_saucepan_lid_lifted_then_dropped_is_not_a_success(sim):
+    sim.reset_state("take_lid_off_saucepan", 6, 0)
+    task = sim.task
+    actions = list(task.demonstration())
+    for action in actions:
+        go(sim, action)
+    assert sim.is_success()
+    go(sim, moved(actions[-1], gripper_open=True))  # let go of the lid above the pan
+    for _ in range(20):
+        sim.controller.step_frame()
+    assert not task.grasped() and not task.lid_lifted()
+    assert not sim.is_success()
+
+
+def test_saucepan_lid_raised_only_a_little_is_not_a_success(sim, monkeypatch):
+    monkeypatch.setattr(take_lid_off_saucepan, "LIFT", 0.03)
+    sim.reset_state("take_lid_off_saucepan", 7, 0)
+    run_demo(sim)
+    task = sim.task
+    assert task.lid.per_scene_id in task.grasped() and not task.lid_lifted()
+    assert not sim.is_success()

@@ -1,0 +1,185 @@
+"""SAPIEN tasks that carry an object to a place: the object must end up in the place, let go
+of, and in the right number; held there, put down beside it or left part-way is not a success.
+
+Each test drives the task's own scripted demonstrator and changes it into the mistake.
+"""
+
+import numpy as np
+import pytest
+from task_demos import go, hold_at_release, moved, run_demo, shifted
+
+# task, seed, whether the object is in its place (checked while still held and after letting go)
+PLACED = [
+    ("close_jar", 1, lambda t: t.lid_on(t.target_jar)),
+    ("meat_off_grill", 1, lambda t: t.off_grill(t.variation)),
+    ("put_money_in_safe", 2, lambda t: t.shelf_of_money() == t.variation),
+    ("put_groceries_in_cupboard", 1, lambda t: t.in_cupboard(t.variation)),
+    ("place_wine_at_rack_location", 1, lambda t: t.slot_of_bottle() == t.variation),
+    ("put_toilet_roll_on_stand", 0, lambda t: t.on_stand()),
+    ("phone_on_base", 0, lambda t: t.on_base()),
+    ("put_umbrella_in_umbrella_stand", 0, lambda t: t.in_stand()),
+    ("take_plate_off_colored_dish_rack", 8, lambda t: t.off_rack() and t.on_table()),
+    ("beat_the_buzz", 1, lambda t: t.at_end() and not t.touched),  # the wand on the end rest
+]
+
+
+@pytest.mark.parametrize(("task", "seed", "placed"), PLACED, ids=[c[0] for c in PLACED])
+def test_an_object_in_place_but_still_held_is_not_a_success_until_let_go(sim, task, seed, placed):
+    sim.reset_state(task, seed, 0)
+    release = hold_at_release(sim)
+    assert placed(sim.task) and sim.task.grasped()
+    assert not sim.is_success()
+    assert sim.execute(release).success and placed(sim.task)
+
+
+def _away_from(y: float, distance: float) -> list[float]:
+    """An offset along y of `distance` towards the table's middle from a target at `y`."""
+    return [0.0, -distance if y > 0 else distance, 0.0]
+
+
+# task, seed, first key action to shift, the shift (from the task at reset), whether the object is in place
+BESIDE = [
+    ("phone_on_base", 1, 3, lambda t: _away_from(t.base.get_root_pose().p[1], 0.15), lambda t: t.on_base()),
+    ("put_rubbish_in_bin", 1, 3, lambda t: [-0.14, 0.0, 0.0], lambda t: t.in_bin(t.rubbish)),  # the robot's side
+    ("put_knife_on_chopping_board", 1, 5, lambda t: _away_from(t.board.get_root_pose().p[1], 0.22), lambda t: t.on_board()),
+    ("put_books_on_bookshelf", 2, 3, lambda t: [-0.20, 0.0, -0.11], lambda t: t.on_top_shelf(0)),  # in front of the shelf
+    ("put_umbrella_in_umbrella_stand", 1, 3, lambda t: _away_from(t.stand.get_root_pose().p[1], 0.14), lambda t: t.in_stand()),
+]
+
+
+@pytest.mark.parametrize(("task", "seed", "after", "offset", "placed"), BESIDE, ids=[c[0] for c in BESIDE])
+def test_an_object_put_down_beside_its_place_is_not_a_success(sim, task, seed, after, offset, placed):
+    sim.reset_state(task, seed, 0)
+    run_demo(sim, shifted(after, offset(sim.task)))
+    assert not placed(sim.task) and not sim.task.grasped()
+    assert not sim.is_success()
+
+
+def test_toilet_roll_dropped_beside_the_stand_is_not_a_success(sim):
+    sim.reset_state("put_toilet_roll_on_stand", 1, 0)
+    task = sim.task
+    stand = task.post_axis()
+    task.post_axis = lambda: stand + [0.0, 0.14 if stand[1] < 0 else -0.14, 0.0]  # aim beside the stand
+    run_demo(sim)
+    del task.post_axis  # the real stand again
+    assert np.linalg.norm(np.asarray(task.roll.pose.p)[:2] - stand[:2]) > 0.08
+    assert not task.on_stand() and not task.grasped()
+    assert not sim.is_success()
+
+
+def test_light_bulb_in_the_lamp_but_still_held_is_not_a_success_until_let_go(sim):
+    sim.reset_state("light_bulb_in", 0, 0)
+    bulb = sim.task.bulbs[sim.task.variation].per_scene_id
+    demo = sim.task.demonstration()
+    for _ in range(5):  # approach, grasp, lift, carry, lower the screw base into the socket
+        inserted = next(demo)
+        go(sim, inserted)
+    assert not inserted.gripper_open
+    assert sim.task.in_lamp(sim.task.variation) and bulb in sim.task.grasped()
+    assert not sim.is_success()
+    assert sim.execute(moved(inserted, gripper_open=True)).success  # let go
+
+
+def test_knife_on_the_board_but_still_held_is_not_a_success(sim):
+    sim.reset_state("put_knife_on_chopping_board", 2, 0)
+    task = sim.task
+    run_demo(sim)
+    assert sim.is_success()
+    task.grasped = lambda: {task.knife.per_scene_id}  # "then nothing grasped" is part of success
+    assert task.on_board() and not sim.is_success()
+
+
+def test_knife_pulled_half_out_of_the_block_and_let_go_is_not_a_success(sim):
+    sim.reset_state("put_knife_on_chopping_board", 0, 0)
+    task = sim.task
+    keys = task.demonstration()
+    for _ in range(2):
+        go(sim, next(keys))
+    grasp = np.asarray(sim.robot.tcp_pose().p)
+    go(sim, task.key(grasp + [0, 0, 0.05], sim.robot.tcp_pose().q, False))
+    go(sim, task.key(grasp + [0, 0, 0.05], sim.robot.tcp_pose().q, True))  # it drops back into the block
+    assert not task.on_board() and not sim.is_success()
+
+
+def test_book_carried_over_the_shelf_but_not_put_down_is_not_a_success(sim):
+    sim.reset_state("put_books_on_bookshelf", 1, 0)
+    task = sim.task
+    keys = task.demonstration()
+    for _ in range(4):  # picked up and carried over the top shelf, not yet put down
+        go(sim, next(keys))
+    assert task.grasped() and not task.on_top_shelf(0)
+    assert not sim.is_success()
+
+
+def test_plate_lifted_and_put_back_in_the_rack_is_not_a_success(sim):
+    sim.reset_state("take_plate_off_colored_dish_rack", 9, 0)
+    task = sim.task
+    actions = task.demonstration()
+    approach, grasp, lift = next(actions), next(actions), next(actions)
+    for action in (approach, grasp, lift):
+        go(sim, action)
+    assert task.grasped()
+    go(sim, moved(grasp, gripper_open=True))  # back down into the slot, let go
+    go(sim, approach)
+    assert not task.off_rack() and not task.grasped()
+    assert not sim.is_success()
+
+
+def test_plate_starts_in_the_black_slot(sim):
+    for seed in range(3):
+        sim.reset_state("take_plate_off_colored_dish_rack", seed, 0)
+        task = sim.task
+        plate = np.asarray(task.plate.pose.p)
+        black = np.asarray(task.pillars["black"].pose.p)
+        others = [np.asarray(task.pillars[c].pose.p) for c in ("red", "purple")]
+        assert np.linalg.norm(plate[:2] - black[:2]) < 0.01
+        assert all(np.linalg.norm(plate[:2] - o[:2]) > 0.04 for o in others)
+
+
+def test_stack_blocks_one_block_too_few_is_not_a_success(sim):
+    for seed in range(20):
+        sim.reset_state("stack_blocks", seed, 0)
+        if sim.task.count >= 3:
+            break
+    task = sim.task
+    count = task.count
+    task.count = count - 1  # the demonstrator stacks one block too few
+    run_demo(sim)
+    task.count = count
+    assert task.stacked() == count - 1 and not task.grasped()
+    assert not sim.is_success()
+
+
+def test_place_cups_one_cup_too_few_is_not_a_success(sim):
+    seed = next(s for s in range(50) if sim.reset_state("place_cups", s, 0) or sim.task.count >= 2)
+    sim.reset_state("place_cups", seed, 0)
+    asked = sim.task.count
+    sim.task.count = asked - 1  # let the demonstrator hang one cup too few
+    try:
+        run_demo(sim)
+    finally:
+        sim.task.count = asked
+    assert sum(sim.task.hanging(i) for i in range(3)) == asked - 1
+    assert not sim.is_success()
+
+
+def test_basketball_dropped_beside_the_hoop_is_not_a_success(sim):
+    sim.reset_state("basketball_in_hoop", 0, 0)
+    task = sim.task
+    side = task.frame.to_transformation_matrix()[:3, 1] * 0.14  # along the board, past the ring
+    for i, action in enumerate(task.demonstration()):
+        sim.execute(moved(action, side) if i >= 3 else action)
+    ball = task._ring_local()
+    assert ball[2] < 0 and not task.grasped()  # the ball fell to the table, outside the ring
+    assert not task.passed and not sim.is_success()
+
+
+def test_basketball_held_over_the_ring_is_not_a_success(sim):
+    sim.reset_state("basketball_in_hoop", 1, 0)
+    task = sim.task
+    release = hold_at_release(sim)  # over the ring, the ball still in the hand
+    local = task._ring_local()
+    assert local[2] > 0 and np.linalg.norm(local[:2]) < 0.02
+    assert not sim.is_success()
+    go(sim, moved(release, (0.0, 0.0, 0.05), gripper_open=False))  # lifted away without going through
+    assert not sim.is_success()

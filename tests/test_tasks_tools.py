@@ -1,0 +1,164 @@
+"""SAPIEN tasks that handle a tool (scoop_with_spatula, beat_the_buzz, water_plants): plausible
+wrong uses are not a success. (Their wrong-target and let-go checks, and those of
+reach_and_drag, slide_block_to_color_target and sweep_to_dustpan_of_size, are in
+test_tasks_wrong_target.py and test_tasks_pick_and_place.py.)
+
+Each test drives the task's own scripted demonstrator and changes one key action into the
+mistake. scoop_with_spatula's key poses: 0 above the handle, 1 grasp, 2 lift, 3 above the start
+of the push, 4 blade on the table, 5 blade pushed under the cube, 6 lift.
+"""
+
+import numpy as np
+from task_demos import go, moved
+
+from xicm.core.types import KeyAction
+from xicm.plugins.simulators.sapien.scene import TABLE_TOP_Z
+
+
+# ------------------------------------------------------------------ scoop_with_spatula
+def spatula_held(task) -> bool:
+    return task.spatula.per_scene_id in task.grasped()
+
+
+def test_scoop_demo_success_needs_every_part(sim):
+    sim.reset_state("scoop_with_spatula", 0, 0)
+    task = sim.task
+    for i, action in enumerate(task.demonstration()):
+        go(sim, action)
+        if i == 5:  # the blade is under the cube, still on the table: scooped but not lifted
+            assert task.cube_on_blade() and spatula_held(task)
+            assert not sim.is_success()
+    assert float(task.cube.pose.p[2]) - 0.02 > TABLE_TOP_Z + 0.05
+    assert task.cube_on_blade() and spatula_held(task)
+    assert sim.is_success()
+
+
+def test_scoop_cube_pushed_but_not_scooped_is_not_a_success(sim):
+    sim.reset_state("scoop_with_spatula", 1, 0)
+    task = sim.task
+    for i, action in enumerate(task.demonstration()):
+        if i == 5:  # the push stops 3 cm short: the blade is only under the cube's front edge
+            back = -0.03 * task.push_dir
+            action = moved(action, (back[0], back[1], 0.0))
+        go(sim, action)
+    assert spatula_held(task)
+    assert float(task.spatula.pose.p[2]) > TABLE_TOP_Z + 0.08  # the spatula is up ...
+    assert float(task.cube.pose.p[2]) < TABLE_TOP_Z + 0.02 + 0.05  # ... the cube slid off it
+    assert not task.cube_on_blade()
+    assert not sim.is_success()
+
+
+def test_scoop_spatula_lifted_without_the_cube_is_not_a_success(sim):
+    sim.reset_state("scoop_with_spatula", 2, 0)
+    task = sim.task
+    start = None
+    for i, action in enumerate(task.demonstration()):
+        if i == 4:
+            start = action
+        if i == 5:  # no push: the blade stops in front of the cube
+            action = start
+        if i == 6:
+            action = moved(start, (0.0, 0.0, 0.10))
+        go(sim, action)
+    assert spatula_held(task)
+    assert float(task.spatula.pose.p[2]) > TABLE_TOP_Z + 0.08  # the spatula is up ...
+    assert float(task.cube.pose.p[2]) < TABLE_TOP_Z + 0.03  # ... the cube is not
+    assert not sim.is_success()
+
+
+def test_scoop_cube_on_the_spatula_but_spatula_let_go_is_not_a_success(sim):
+    sim.reset_state("scoop_with_spatula", 3, 0)
+    task = sim.task
+    last = None
+    for action in task.demonstration():
+        go(sim, action)
+        last = action
+    assert sim.is_success()
+    sim.execute(moved(last, gripper_open=True))  # let go of the lifted spatula
+    assert not spatula_held(task)
+    assert not sim.is_success()
+
+
+def test_scoop_cube_on_the_blade_on_the_table_released_is_not_a_success(sim):
+    sim.reset_state("scoop_with_spatula", 4, 0)
+    task = sim.task
+    actions = task.demonstration()
+    for _, action in zip(range(6), actions):  # up to the blade pushed under the cube
+        go(sim, action)
+    sim.execute(moved(action, gripper_open=True))  # instead of lifting: let go ...
+    sim.execute(moved(action, (0.0, 0.0, 0.10), gripper_open=True))  # ... and move the hand up
+    assert task.cube_on_blade() and not spatula_held(task)
+    assert np.isclose(float(task.spatula.pose.p[2]), TABLE_TOP_Z, atol=0.01)
+    assert not sim.is_success()
+
+
+# ------------------------------------------------------------------ beat_the_buzz
+def test_beat_the_buzz_a_touch_of_the_wire_fails_for_good(sim):
+    sim.reset_state("beat_the_buzz", 0, 0)
+    task = sim.task
+    for i, action in enumerate(task.demonstration()):
+        if i == 3:  # the carry along the wire, 3 cm too low: the ring's top bar drags on the wire
+            low = moved(action, (0.0, 0.0, -0.03))
+            sim.execute(low)
+            assert task.touched
+            sim.execute(action)  # back on the right line, then finish the demonstration
+            continue
+        sim.execute(action)
+    assert task.at_end() and not task.grasped()
+    assert not sim.is_success()
+
+
+def test_beat_the_buzz_wand_left_on_the_start_rest_is_not_a_success(sim):
+    sim.reset_state("beat_the_buzz", 2, 0)
+    actions = sim.task.demonstration()  # key poses depend on the state as it goes: run it lazily
+    lifted = None
+    for _, action in zip(range(3), actions):  # grasp, lift the ring onto the wire axis ...
+        sim.execute(action)
+        lifted = action
+    sim.execute(moved(lifted, (0.0, 0.0, -0.01), gripper_open=True))  # ... and put it back
+    assert not sim.task.touched and not sim.task.grasped()
+    assert not sim.is_success()
+
+
+# ------------------------------------------------------------------ water_plants
+def test_water_plants_can_held_over_the_pot_untipped_is_not_a_success(sim):
+    sim.reset_state("water_plants", 0, 0)
+    task = sim.task
+    for i, action in enumerate(task.demonstration()):
+        if i == 4:  # the tipping: stay upright at the pouring position instead
+            break
+        go(sim, action)
+    for _ in range(20):
+        sim.controller.step_frame()
+    assert task.beads_in_pot() == 0 and task.grasped()
+    assert not sim.is_success()
+
+
+def test_water_plants_poured_beside_the_pot_is_not_a_success(sim):
+    sim.reset_state("water_plants", 1, 0)
+    task = sim.task
+    for i, action in enumerate(task.demonstration()):
+        # pour 15 cm towards the robot of where the demonstrator would: the water misses the pot
+        sim.execute(moved(action, (-0.15, 0.0, 0.0)) if i >= 3 else action)
+    for _ in range(20):
+        sim.controller.step_frame()
+    on_table = [bead for bead in task.beads if bead.pose.p[2] < 0.80]  # poured out, onto the table
+    assert on_table and task.beads_in_pot() == 0
+    assert not sim.is_success()
+
+
+def test_water_plants_can_dropped_on_the_pot_is_not_a_success(sim):
+    """What copying a pick-and-place demo does: take the can, let go of it above the plant."""
+    for seed in range(3):
+        sim.reset_state("water_plants", seed, 0)
+        task = sim.task
+        actions = list(task.demonstration())[:3]  # above the handle, grasp, lift
+        for action in actions:
+            go(sim, action)
+        pot = task.pot.pose.p
+        above = KeyAction((float(pot[0]), float(pot[1]), float(pot[2]) + 0.25), actions[-1].quat_wxyz, False)
+        go(sim, above)
+        sim.execute(moved(above, gripper_open=True))  # let go
+        for _ in range(30):
+            sim.controller.step_frame()
+        assert not task.grasped() and not sim.is_success()
