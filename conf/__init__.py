@@ -1,18 +1,9 @@
 """The Hydra config tree of xicm (a package so that `initialize_config_module("xicm.conf")` and
 `pkg://xicm.conf` find it). Importing it registers the OmegaConf resolvers the configs use."""
 
-import hashlib
-
 from omegaconf import OmegaConf
 
-
-def short_dirname(text: str, limit: int = 120) -> str:
-    """A folder name of at most `limit` + 11 characters: long ones (e.g. a sweep over a long
-    task list) keep their start and get a hash of the whole, so they stay distinct."""
-    text = str(text)
-    if len(text) <= limit:
-        return text
-    return f"{text[:limit]}-{hashlib.sha1(text.encode()).hexdigest()[:10]}"
+from xicm.core.run_dir import FOLDER_NAME_LIMIT, overrides_outside_identity, short_name
 
 
 def first_set(*values):
@@ -20,7 +11,15 @@ def first_set(*values):
     return next((v for v in values if v not in (None, "")), None)
 
 
-if not OmegaConf.has_resolver("xicm_dirname"):
-    OmegaConf.register_new_resolver("xicm_dirname", short_dirname)
+def excluded_from_folder_names(*, _root_) -> list[str]:
+    """`${xicm_outside_identity:}`: the keys of this job's overrides that are outside a run's
+    identity (core/run_dir.py), for hydra.job.config.override_dirname.exclude_keys."""
+    return overrides_outside_identity(_root_.hydra.overrides.task)
+
+
+if not OmegaConf.has_resolver("xicm_dirname"):  # long names are cut and hashed, so they stay distinct
+    OmegaConf.register_new_resolver("xicm_dirname", lambda text: short_name(text, FOLDER_NAME_LIMIT))
 if not OmegaConf.has_resolver("xicm_first"):
     OmegaConf.register_new_resolver("xicm_first", first_set)
+if not OmegaConf.has_resolver("xicm_outside_identity"):
+    OmegaConf.register_new_resolver("xicm_outside_identity", excluded_from_folder_names)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -27,6 +28,7 @@ def eval_main(cfg: DictConfig) -> None:
 
     from xicm.core.eval_job import run_eval
     from xicm.core.report import markdown_table
+    from xicm.core.run_dir import EPISODES, REPORT_FILES
 
     out_dir = Path(HydraConfig.get().runtime.output_dir)
     try:
@@ -35,7 +37,7 @@ def eval_main(cfg: DictConfig) -> None:
         _fail(exc)
     print()
     print(markdown_table(summary))
-    print(f"\nresults: {out_dir}/ (episodes.jsonl, summary.json, table.md, tasks.csv)")
+    print(f"\nresults: {out_dir}/ ({', '.join((EPISODES, *REPORT_FILES))})")
 
 
 @hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="config")
@@ -63,51 +65,56 @@ def plugins_main() -> None:
         print(f"{kind}: {', '.join(registry.names(kind)) or '-'}")
 
 
+def report_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="xicm-report",
+        description="Print the success table of finished or partial xicm-eval runs.",
+    )
+    parser.add_argument(
+        "dirs", nargs="+", metavar="DIR",
+        help="an xicm-eval output folder, or a folder above several (e.g. a multirun): every run below it gets "
+        "its table, and a folder with several runs also gets sweep.md/.csv/.json/.png over the swept keys",
+    )
+    parser.add_argument(
+        "--merge", metavar="OUT_DIR",
+        help="instead, write one report over the runs DIR... (one config, covering different tasks or seeds) into OUT_DIR",
+    )
+    return parser
+
+
 def report_main(argv: list[str] | None = None) -> None:
-    """xicm-report RUN_DIR [RUN_DIR ...]: print the table of finished or partial runs."""
-    import json
-
-    from xicm.core.evaluate import EPISODES_FILE, run_rows
+    """xicm-report DIR [DIR ...] | --merge OUT_DIR RUN_DIR [RUN_DIR ...] (see report_parser)."""
     from xicm.core.report import markdown_table, media_lines, summarise
+    from xicm.core.run_dir import EPISODES, META, REPORT_FILES, RunDir, find_runs
 
-    args = sys.argv[1:] if argv is None else argv
-    if not args or args[0] in ("-h", "--help"):
-        print(
-            "usage: xicm-report DIR [DIR ...]  (xicm-eval output folders, or folders above several of them:\n"
-            "a folder with several runs, e.g. a multirun, also gets sweep.md/.csv/.json/.png over the swept keys)\n"
-            "       xicm-report --merge OUT_DIR RUN_DIR [RUN_DIR ...]  (one report over runs of one config that\n"
-            "cover different tasks or seeds)"
-        )
-        sys.exit(0 if args else 2)
-    if args[0] == "--merge":
-        if len(args) < 3:
-            _fail(XicmError("usage: xicm-report --merge OUT_DIR RUN_DIR [RUN_DIR ...]"))
+    args = report_parser().parse_args(argv)
+    if args.merge is not None:
         from xicm.core.merge import merge_runs
 
         try:
-            summary = merge_runs(Path(args[1]), [Path(a) for a in args[2:]])
+            summary = merge_runs(Path(args.merge), [Path(d) for d in args.dirs])
         except XicmError as exc:
             _fail(exc)
         print(markdown_table(summary))
-        print(f"\nmerged into {args[1]} (episodes.jsonl, run.json, summary.json, table.md, tasks.csv)")
+        print(f"\nmerged into {args.merge} ({', '.join((EPISODES, META, *REPORT_FILES))})")
         return
-    for arg in args:
-        run_dirs = sorted(p.parent for p in Path(arg).rglob(EPISODES_FILE)) or [Path(arg)]
+    for arg in args.dirs:
+        run_dirs = find_runs(Path(arg))
+        if not run_dirs:
+            _fail(XicmError(f"{arg} has no {EPISODES} and {META}, nor a folder below it; pass an xicm-eval output folder"))
         for run_dir in run_dirs:
-            meta_path = run_dir / "run.json"
-            if not (run_dir / EPISODES_FILE).exists() or not meta_path.exists():
-                _fail(XicmError(f"{run_dir} has no {EPISODES_FILE} and run.json; pass an xicm-eval output folder"))
-            meta = json.loads(meta_path.read_text())
+            run = RunDir(run_dir)
+            meta = run.read_meta()
             print(f"## {run_dir}\n")
-            rows = run_rows(run_dir, meta)
+            rows = run.rows(meta)
             print(markdown_table(summarise(rows, meta["splits"], meta["tasks"])))
             for line in media_lines(rows, run_dir):  # rollout videos and LLM transcripts, if any
                 print(line)
             print()
         if len(run_dirs) > 1:  # a sweep: one table over the runs, and a plot
-            from xicm.core.sweep import sweep_markdown, write_sweep
+            from xicm.core.sweep import SWEEP_FILES, sweep_markdown, write_sweep
 
             sweep = write_sweep(Path(arg), run_dirs)
             print(f"## sweep over {', '.join(sweep['axes']) or 'nothing (the runs share one config)'}\n")
             print(sweep_markdown(sweep))
-            print(f"written: {Path(arg) / 'sweep.md'}, sweep.csv, sweep.json, sweep.png\n")
+            print(f"written: {Path(arg) / SWEEP_FILES[0]}, {', '.join(SWEEP_FILES[1:])}\n")

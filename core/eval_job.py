@@ -2,45 +2,19 @@
 
 from __future__ import annotations
 
-import hashlib
-import json
 from pathlib import Path
 from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
 from xicm.core import build, report
-from xicm.core.errors import ConfigError
-from xicm.core.evaluate import episode_keys, run_episodes, write_json_atomic, write_text_atomic
+from xicm.core.atomic import write_json_atomic
+from xicm.core.episode_loop import run_episodes
 from xicm.core.plugins import describe_plugins, get_registry
 from xicm.core.ray_shards import episode_runner, shard_settings
+from xicm.core.run_dir import RunDir, config_fingerprint, episode_keys
 from xicm.core.tracking import Tracker
 from xicm.core.video import VideoSettings
-
-# Keys that may change between an interrupted run and its resumption.
-RESUMABLE_KEYS = ("seeds", "episodes", "progress", "tracking", "paths", "llm_cache", "run_name", "collect", "shards",
-                  "video", "transcripts")
-
-
-def config_fingerprint(cfg: DictConfig) -> str:
-    data = OmegaConf.to_container(cfg, resolve=False)
-    for key in RESUMABLE_KEYS:
-        data.pop(key, None)
-    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
-
-
-def check_resume(out_dir: Path, cfg: DictConfig) -> None:
-    """Refuse to mix episodes of two different configs in one output folder."""
-    marker = out_dir / "run.json"
-    fingerprint = config_fingerprint(cfg)
-    if marker.exists():
-        old = json.loads(marker.read_text()).get("fingerprint")
-        if old != fingerprint:
-            raise ConfigError(
-                f"{out_dir} holds episodes of a different config (fingerprint {old} != {fingerprint}); "
-                "choose another output folder with hydra.run.dir=... or delete that one"
-            )
-
 
 def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     registry = get_registry()
@@ -48,7 +22,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     build.check_run(cfg, registry, tasks)
     shards = shard_settings(cfg)
     video = VideoSettings.from_config(cfg, out_dir)
-    check_resume(out_dir, cfg)
+    RunDir(out_dir).check_same_run(cfg)
     out_dir.mkdir(parents=True, exist_ok=True)
 
     plugins = describe_plugins(registry.pm)
@@ -59,7 +33,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         shards, cfg, out_dir, keys, max_steps=int(cfg.max_steps), video=video, transcripts_dir=transcripts_dir
     ) as runner:
         write_json_atomic(
-            out_dir / "run.json",
+            RunDir(out_dir).meta,
             {
                 "fingerprint": config_fingerprint(cfg),
                 "tasks": tasks,
@@ -78,22 +52,13 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
                 progress=bool(cfg.progress),
                 on_result=lambda r: tracker.log({"success": int(r.success), "steps": r.steps, f"task/{r.task}/success": int(r.success)}),
             )
-            summary = write_report(rows, splits, tasks, out_dir)
+            summary = report.write_report(rows, splits, tasks, out_dir)
             _track_summary(tracker, summary)
             tracker.log_run_media(rows, out_dir)
         finally:
             note = tracker.finish()
             if note:
                 print(note)
-    return summary
-
-
-def write_report(rows: list[dict[str, Any]], splits: dict[str, str], tasks: list[str], out_dir: Path) -> dict[str, Any]:
-    summary = report.summarise(rows, splits, tasks)
-    write_json_atomic(out_dir / "summary.json", summary)
-    media = "".join("\n" + line for line in report.media_lines(rows, out_dir))
-    write_text_atomic(out_dir / "table.md", report.markdown_table(summary) + media + "\n")
-    write_text_atomic(out_dir / "tasks.csv", report.tasks_csv(summary))
     return summary
 
 

@@ -2,7 +2,7 @@
 
 Each actor builds the simulator and the policy once (core.build.build_run, as a local run does) and runs the
 (task, seed, episode) keys the driver hands it. The driver stays the only writer of
-episodes.jsonl: `core.evaluate.run_episodes` asks for the pending keys one by one, in key
+episodes.jsonl: `core.episode_loop.run_episodes` asks for the pending keys one by one, in key
 order, and this module answers from a window of keys handed out ahead to the actors. So the
 file is written exactly as by a local run (same order, never a duplicate), and a killed run
 resumes from the file as usual, losing at most the results still in the window.
@@ -24,7 +24,7 @@ from typing import Any
 from omegaconf import DictConfig, OmegaConf
 
 from xicm.core.errors import ConfigError, XicmError
-from xicm.core.evaluate import EPISODES_FILE, read_episodes
+from xicm.core.run_dir import RunDir
 from xicm.core.types import EpisodeResult
 
 BACKENDS = ("local", "ray")
@@ -84,7 +84,7 @@ def episode_runner(
     """Build the run here (`build_run`) and run episodes in this process, or on Ray actors that
     each build their own (the driver then builds nothing). `episode_options` (max_steps, ...) go
     to every `core.episode.run_episode` call, here or in the actors."""
-    done = {(r["task"], r["seed"], r["episode"]) for r in read_episodes(out_dir / EPISODES_FILE)}
+    done = {(r["task"], r["seed"], r["episode"]) for r in RunDir(out_dir).read_episodes()}
     pending = [k for k in keys if k not in done]  # the order run_episodes will ask in
     if settings.backend == "local" or not pending:  # nothing to run: do not start a cluster
         worker = EpisodeWorker(cfg, episode_options)

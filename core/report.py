@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
@@ -12,18 +11,21 @@ from typing import Any
 
 import numpy as np
 
+from xicm.core.atomic import write_atomic, write_json_atomic
+from xicm.core.run_dir import TRANSCRIPTS, VIDEOS, RunDir, video_passed
+
 GROUPS = (("Level-1", "level1"), ("Level-2", "level2"), ("Seen", "seen"))
 
 
 def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """95% Wilson score interval of a success rate (0..1)."""
+    """Wilson score interval of a success rate (0..1), z = 1.96 standard errors (95%) as the
+    reports have always used: scipy's, at the confidence level 2*Phi(z) - 1 that z stands for."""
     if n == 0:
         return (0.0, 0.0)
-    p = successes / n
-    denom = 1 + z * z / n
-    centre = (p + z * z / (2 * n)) / denom
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    from scipy.stats import binomtest, norm  # scipy.stats takes ~0.5 s to import: only when reporting
+
+    ci = binomtest(int(successes), int(n)).proportion_ci(confidence_level=2 * norm.cdf(z) - 1, method="wilson")
+    return (float(ci.low), float(ci.high))
 
 
 def _mean_std(values: Sequence[float]) -> tuple[float, float]:
@@ -117,6 +119,17 @@ def markdown_table(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def write_report(rows: list[dict[str, Any]], splits: dict[str, str], tasks: list[str], run_dir: Path) -> dict[str, Any]:
+    """Summarise the rows and write the run folder's summary.json, table.md and tasks.csv."""
+    run = RunDir(run_dir)
+    summary = summarise(rows, splits, tasks)
+    write_json_atomic(run.summary, summary)
+    media = "".join("\n" + line for line in media_lines(rows, run.path))
+    write_atomic(run.table, markdown_table(summary) + media + "\n")
+    write_atomic(run.tasks_csv, tasks_csv(summary))
+    return summary
+
+
 def media_lines(rows: Sequence[dict[str, Any]], run_dir: Path, links_per_task: int = 4) -> list[str]:
     """Markdown lines naming the run's rollout videos (one line per task, failures linked first)
     and LLM transcripts; paths are relative to `run_dir`, where table.md lives. [] if none."""
@@ -132,17 +145,17 @@ def media_lines(rows: Sequence[dict[str, Any]], run_dir: Path, links_per_task: i
             transcripts[r["task"]] += 1
     lines = []
     if videos or video_errors:
-        lines += ["", "Rollout videos (videos/<task>/s<seed>-e<episode>-PASS|FAIL.mp4):"]
+        lines += ["", f"Rollout videos ({VIDEOS}/<task>/s<seed>-e<episode>-PASS|FAIL.mp4):"]
         for task, paths in videos.items():
-            passed = sum(p.endswith("-PASS.mp4") for p in paths)
-            shown = sorted(paths, key=lambda p: (p.endswith("-PASS.mp4"), p))[:links_per_task]
+            passed = sum(map(video_passed, paths))
+            shown = sorted(paths, key=lambda p: (video_passed(p), p))[:links_per_task]
             links = ", ".join(f"[{Path(p).stem}]({p})" for p in shown) + (", ..." if len(paths) > len(shown) else "")
             lines.append(f"- {task}: {len(paths)} ({passed} PASS, {len(paths) - passed} FAIL): {links}")
         if video_errors:
             lines.append(f"- {video_errors} episodes without a video (see extra.video_error in episodes.jsonl)")
     if transcripts:
         counts = ", ".join(f"{task} {n}" for task, n in transcripts.items())
-        lines += ["", f"LLM prompts and replies (transcripts/<task>/s<seed>-e<episode>.json): {counts} episodes."]
+        lines += ["", f"LLM prompts and replies ({TRANSCRIPTS}/<task>/s<seed>-e<episode>.json): {counts} episodes."]
     return lines
 
 

@@ -1,7 +1,8 @@
 """One report over many runs (a Hydra multirun, or any folders of xicm-eval outputs).
 
 The config keys whose values differ between the runs are the sweep's axes (e.g.
-`detector.noise_cm`, `policy.k`, `retriever.name`). For every run: those values and its
+`detector.noise_cm`, `policy.k`, `retriever.name`; never a key outside a run's identity, see
+core/run_dir.py). For every run: those values and its
 Level-1 / Level-2 / Seen / All success, mean (std over seeds). Written as sweep.md,
 sweep.csv and sweep.json, and sweep.png: success against the first axis, one line per group
 (or, with several axes, one line per combination of the others), error bars = std over seeds.
@@ -15,15 +16,11 @@ import json
 from pathlib import Path
 from typing import Any
 
-from xicm.core.evaluate import EPISODES_FILE, run_rows
+from xicm.core.atomic import write_atomic, write_json_atomic
 from xicm.core.report import summarise
+from xicm.core.run_dir import RunDir, outside_identity
 
-# Config keys that never define a sweep axis (they change with the folder, not the experiment).
-IGNORED_PREFIXES = ("paths.", "run_name", "hydra", "tracking.", "progress", "llm_cache.", "collect.", "shards.")
-
-
-def find_runs(root: Path) -> list[Path]:
-    return sorted(p.parent for p in Path(root).rglob(EPISODES_FILE) if (p.parent / "run.json").exists())
+SWEEP_FILES = ("sweep.md", "sweep.csv", "sweep.json", "sweep.png")  # written in the folder above the runs
 
 
 def flatten(data: Any, prefix: str = "") -> dict[str, Any]:
@@ -35,9 +32,9 @@ def flatten(data: Any, prefix: str = "") -> dict[str, Any]:
     return {prefix[:-1]: json.dumps(data) if isinstance(data, list) else data}
 
 
-def job_overrides(run: Path) -> dict[str, Any] | None:
-    """The command-line overrides of a Hydra job (`.hydra/overrides.yaml`), or None."""
-    path = run / ".hydra" / "overrides.yaml"
+def recorded_overrides(run: Path) -> dict[str, Any] | None:
+    """{key: value} of the overrides Hydra recorded in a finished job's folder, or None."""
+    path = RunDir(run).hydra_overrides
     if not path.exists():
         return None
     import yaml
@@ -55,7 +52,7 @@ def varying(values: list[dict[str, Any]]) -> list[str]:
     keys = sorted({k for v in values for k in v})
     return [
         k for k in keys
-        if not k.startswith(IGNORED_PREFIXES) and len({json.dumps(v.get(k), default=str) for v in values}) > 1
+        if not outside_identity(k) and len({json.dumps(v.get(k), default=str) for v in values}) > 1
     ]
 
 
@@ -65,8 +62,8 @@ def collect_sweep(runs: list[Path]) -> dict[str, Any]:
     Axes are the overrides that differ between the jobs of a Hydra multirun (e.g. `retriever`,
     `policy.k`); for runs without Hydra's record, the config keys whose values differ.
     """
-    metas = [json.loads((r / "run.json").read_text()) for r in runs]
-    overrides = [job_overrides(r) for r in runs]
+    metas = [RunDir(r).read_meta() for r in runs]
+    overrides = [recorded_overrides(r) for r in runs]
     if all(o is not None for o in overrides):
         flats = overrides
     else:
@@ -74,7 +71,7 @@ def collect_sweep(runs: list[Path]) -> dict[str, Any]:
     axes = varying(flats)
     rows = []
     for run, meta, flat in zip(runs, metas, flats):
-        summary = summarise(run_rows(run, meta), meta["splits"], meta["tasks"])
+        summary = summarise(RunDir(run).rows(meta), meta["splits"], meta["tasks"])
         rows.append(
             {
                 **{a: flat.get(a) for a in axes},
@@ -166,11 +163,10 @@ def sweep_plot(sweep: dict[str, Any], path: Path) -> Path | None:
 
 
 def write_sweep(root: Path, runs: list[Path]) -> dict[str, Any]:
-    from xicm.core.evaluate import write_json_atomic, write_text_atomic
-
     sweep = collect_sweep(runs)
-    write_text_atomic(root / "sweep.md", sweep_markdown(sweep))
-    write_text_atomic(root / "sweep.csv", sweep_csv(sweep))
-    write_json_atomic(root / "sweep.json", sweep)
-    sweep_plot(sweep, root / "sweep.png")
+    md, csv_file, json_file, png = (Path(root) / name for name in SWEEP_FILES)
+    write_atomic(md, sweep_markdown(sweep))
+    write_atomic(csv_file, sweep_csv(sweep))
+    write_json_atomic(json_file, sweep)
+    sweep_plot(sweep, png)
     return sweep

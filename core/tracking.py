@@ -7,35 +7,28 @@ group and filter them the way xicm-report's sweep table does.
 
 from __future__ import annotations
 
-import hashlib
 import os
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from xicm.core.run_dir import outside_identity, short_name
+
 WANDB_LABEL_LIMIT = 64  # wandb refuses longer tags (and job types)
+WANDB_GROUP_LIMIT = 128
 
 
-def short_label(text: str, limit: int = WANDB_LABEL_LIMIT) -> str:
-    """`text` if short enough, else its start and a hash of the whole (still distinct)."""
-    text = str(text)
-    if len(text) <= limit:
-        return text
-    return f"{text[: limit - 11]}-{hashlib.sha1(text.encode()).hexdigest()[:10]}"
-
-
-def job_overrides() -> list[str]:
-    """This Hydra job's `key=value` overrides (command line and sweep), without the keys
-    excluded from sweep folder names (paths, progress, ...); [] outside a Hydra job."""
+def current_job_overrides() -> list[str]:
+    """This process's Hydra job's `key=value` overrides (command line and sweep), without the
+    keys outside a run's identity (paths, progress, ...: left out of its folder name too);
+    [] outside a Hydra job."""
     try:
         from hydra.core.hydra_config import HydraConfig
     except ImportError:
         return []
     if not HydraConfig.initialized():
         return []
-    hc = HydraConfig.get()
-    excluded = set(hc.job.config.override_dirname.exclude_keys or ())
-    return [o for o in hc.overrides.task if o.split("=", 1)[0].lstrip("+~") not in excluded]
+    return [o for o in HydraConfig.get().overrides.task if not outside_identity(o)]
 
 
 class Tracker:
@@ -64,9 +57,9 @@ class Tracker:
             dir=out_dir,
             mode=mode,
             config=config,
-            group=short_label(group, 128) if group else None,
-            job_type=short_label(job_type) if job_type else None,
-            tags=[short_label(t) for t in tags or []],
+            group=short_name(group, WANDB_GROUP_LIMIT) if group else None,
+            job_type=short_name(job_type, WANDB_LABEL_LIMIT) if job_type else None,
+            tags=[short_name(t, WANDB_LABEL_LIMIT) for t in tags or []],
             reinit="finish_previous",
             settings=wandb.Settings(silent=True),
         )
@@ -76,7 +69,7 @@ class Tracker:
         """The tracker of an xicm-eval job: `tracking.*` keys, grouped by `tracking.group`,
         job type and tags from the job's overrides (job type 'eval' when there are none)."""
         tracking = cfg.tracking
-        overrides = job_overrides()
+        overrides = current_job_overrides()
         return cls(
             mode=str(tracking.mode),
             project=str(tracking.project),

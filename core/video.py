@@ -4,7 +4,8 @@ The simulator calls back after every control frame it steps (`Simulator.set_fram
 the recorder renders its camera on every `every`-th frame and streams the picture to an ffmpeg
 process (imageio + imageio-ffmpeg), so memory stays flat however long the episode. A simulator
 without that callback gets one picture per key action instead. The file is written under a
-temporary name and renamed to `s<seed>-e<episode>-PASS.mp4` (or -FAIL) once the outcome is known.
+temporary name and renamed to `s<seed>-e<episode>-PASS.mp4` (or -FAIL) once the outcome is known
+(the names: `RunDir.video_recording` and `RunDir.video`).
 
 A video never fails an episode: any error (no encoder, a full disk, a camera the simulator
 lacks) stops that episode's recording, is printed once per process, and is recorded in the
@@ -22,9 +23,9 @@ from typing import Any
 
 from xicm.core.errors import ConfigError
 from xicm.core.interfaces import Simulator
+from xicm.core.run_dir import RunDir
 from xicm.core.types import Observation
 
-VIDEOS_DIR = "videos"
 _warned = False  # the one-line warning is printed once per process
 
 
@@ -52,13 +53,8 @@ class VideoSettings:
             raise ConfigError(f"video.camera must name one of the simulator's cameras, got {camera!r}")
         return cls(Path(run_dir), camera, fps, every)
 
-    @staticmethod
-    def stem(seed: int, episode: int) -> str:
-        return f"s{int(seed)}-e{int(episode):04d}"
-
     def path(self, task: str, seed: int, episode: int, success: bool) -> Path:
-        verdict = "PASS" if success else "FAIL"
-        return self.run_dir / VIDEOS_DIR / task / f"{self.stem(seed, episode)}-{verdict}.mp4"
+        return RunDir(self.run_dir).video(task, seed, episode, success)
 
 
 class EpisodeVideo:
@@ -67,8 +63,8 @@ class EpisodeVideo:
     def __init__(self, settings: VideoSettings, task: str, seed: int, episode: int):
         self.settings = settings
         self.task, self.seed, self.episode = task, int(seed), int(episode)
-        folder = settings.run_dir / VIDEOS_DIR / task
-        self.partial = folder / f"{settings.stem(seed, episode)}.recording.mp4"
+        self.run = RunDir(settings.run_dir)
+        self.partial = self.run.video_recording(task, seed, episode)
         self.error: str | None = None
         self.frames = 0  # pictures written
         self.seconds = 0.0  # spent rendering and encoding
@@ -110,7 +106,7 @@ class EpisodeVideo:
             return {"video_error": self.error}
         if not self.frames:
             return {}  # the episode ended before its first picture (reset failed)
-        return {"video": self._final.relative_to(self.settings.run_dir).as_posix(), "video_frames": self.frames}
+        return {"video": self.run.relative(self._final), "video_frames": self.frames}
 
     # --- work ------------------------------------------------------------------------------------
     def _open(self, obs: Observation) -> None:
@@ -160,7 +156,7 @@ class EpisodeVideo:
     def _publish(self, success: bool) -> None:
         """Rename to the verdict's name; drop a file an earlier, interrupted attempt left."""
         self._final = self.settings.path(self.task, self.seed, self.episode, success)
-        for old in self._final.parent.glob(f"{self.settings.stem(self.seed, self.episode)}-*.mp4"):
+        for old in self.run.finished_videos(self.task, self.seed, self.episode):
             if old != self._final:
                 old.unlink()
         self.partial.replace(self._final)

@@ -122,12 +122,12 @@ def test_unknown_policy_stops_with_the_list():
 
 
 def test_long_sweep_folder_names_are_cut_and_hashed():
-    from xicm.conf import short_dirname
+    from xicm.core.run_dir import FOLDER_NAME_LIMIT, short_name
 
     long = "benchmark.tasks=[" + ",".join(f"task_number_{i}" for i in range(40)) + "],detector.noise_cm="
-    a, b = short_dirname(long + "0"), short_dirname(long + "8")
+    a, b = short_name(long + "0", FOLDER_NAME_LIMIT), short_name(long + "8", FOLDER_NAME_LIMIT)
     assert len(a) == 131 and a != b and a.startswith(long[:120])
-    assert short_dirname("policy.k=6") == "policy.k=6"
+    assert short_name("policy.k=6", FOLDER_NAME_LIMIT) == "policy.k=6"
 
 
 @pytest.mark.parametrize("name", sorted(p.stem for p in (CONF / "experiment").glob("*.yaml")))

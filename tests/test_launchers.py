@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from hydra import compose, initialize_config_module
 
-from xicm.conf import short_dirname
+from xicm.core.run_dir import FOLDER_NAME_LIMIT, short_name
 
 BIN = Path(sys.executable).parent
 
@@ -32,12 +32,12 @@ def test_launcher_configs_compose(launcher, target):
 @pytest.mark.slow
 def test_joblib_multirun_runs_two_jobs_and_the_report_reads_them(tmp_path):
     pytest.importorskip("hydra_plugins.hydra_joblib_launcher")
-    # A long run_name makes each job's folder name longer than xicm_dirname's limit: the names are
-    # then cut and hashed, in the launcher's worker processes, and must still differ.
-    long_name = "joblib-" + "x" * 130
+    # A long extra key makes each job's folder name longer than xicm_dirname's limit: the names
+    # are then cut and hashed, in the launcher's worker processes, and must still differ.
+    long_note = "joblib-" + "x" * 130
     out = _run(
         "xicm-eval", "-m", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
-        "policy=oracle", "benchmark.tasks=[push_buttons]", "episodes=1", "seeds=[0],[1]", f"run_name={long_name}",
+        "policy=oracle", "benchmark.tasks=[push_buttons]", "episodes=1", "seeds=[0],[1]", f"+note={long_note}",
         f"paths.data={tmp_path}/nothing", "hydra.sweep.dir=sweep", "progress=false", "tracking.mode=disabled",
         cwd=tmp_path,
     )
@@ -45,7 +45,7 @@ def test_joblib_multirun_runs_two_jobs_and_the_report_reads_them(tmp_path):
     runs = sorted(p.parent for p in (tmp_path / "sweep").rglob("episodes.jsonl"))
     assert len(runs) == 2, runs
     expected = {
-        short_dirname(f"benchmark.tasks=[push_buttons],episodes=1,policy=oracle,run_name={long_name},seeds=[{s}]")
+        short_name(f"+note={long_note},benchmark.tasks=[push_buttons],episodes=1,policy=oracle,seeds=[{s}]", FOLDER_NAME_LIMIT)
         for s in (0, 1)
     }
     assert {r.name for r in runs} == expected and all(len(n) == 131 for n in expected)
@@ -63,13 +63,13 @@ def test_joblib_multirun_runs_two_jobs_and_the_report_reads_them(tmp_path):
 
 def test_list_valued_overrides_are_hashable_sweep_axes(tmp_path):
     """`seeds=[0],[1]` (one launcher job per seed) gives axis values the sweep can sort and plot."""
-    from xicm.core.sweep import job_overrides, varying
+    from xicm.core.sweep import recorded_overrides, varying
 
     runs = []
     for seed in (0, 1):
         run = tmp_path / f"s{seed}"
         (run / ".hydra").mkdir(parents=True)
         (run / ".hydra" / "overrides.yaml").write_text(f"- seeds=[{seed}]\n- episodes=1\n- +experiment=smoke\n")
-        runs.append(job_overrides(run))
+        runs.append(recorded_overrides(run))
     assert runs[0] == {"seeds": "[0]", "episodes": 1, "experiment": "smoke"}
     assert varying(runs) == ["seeds"] and len({r["seeds"] for r in runs}) == 2

@@ -1,8 +1,9 @@
-"""openai_compatible against real HTTP servers on 127.0.0.1.
+"""openai_compatible (the `openai` package's client) against real HTTP servers on 127.0.0.1.
 
 Fast tests use a scripted OpenAI-protocol server (http.server in a thread) to exercise
-retries, timeouts, HTTP errors and malformed replies deterministically. The slow test starts
-`transformers serve` on the converted embedded Gemma 3 270M folder.
+retries, timeouts, HTTP errors and malformed replies deterministically (retries wait the
+client's backoff, about 0.5 s, 1 s, 2 s). The slow tests start `transformers serve` on the
+converted embedded Gemma 3 270M folder.
 """
 
 from __future__ import annotations
@@ -58,7 +59,8 @@ class FakeOpenAI:
             def do_POST(self):
                 length = int(self.headers.get("Content-Length", 0))
                 body = json.loads(self.rfile.read(length) or b"{}")
-                fake.requests.append({"path": self.path, "headers": dict(self.headers), "body": body})
+                headers = {k.lower(): v for k, v in self.headers.items()}  # HTTP header names are case-insensitive
+                fake.requests.append({"path": self.path, "headers": headers, "body": body})
                 step = fake.script.pop(0) if fake.script else ("ok",)
                 kind = step[0]
                 if kind == "sleep":
@@ -107,7 +109,7 @@ def fake():
 
 
 def llm(fake, **kw) -> OpenAICompatibleLLM:
-    options = {"model": "test-model", "base_url": fake.base_url, "backoff_s": 0.0, "timeout_s": 5.0}
+    options = {"model": "test-model", "base_url": fake.base_url, "timeout_s": 5.0}
     options.update(kw)
     return OpenAICompatibleLLM(**options)
 
@@ -122,7 +124,7 @@ def test_chat_mode_request_and_reply(fake):
     assert body["messages"] == MESSAGES
     assert (body["temperature"], body["top_p"], body["max_tokens"]) == (0.1, 0.001, 256)
     assert body["seed"] == 7 and body["repetition_penalty"] == 1.05 and body["stream"] is False
-    assert "Authorization" not in req["headers"]
+    assert "authorization" not in req["headers"]
 
 
 def test_completion_mode_renders_one_prompt(fake):
@@ -140,10 +142,10 @@ def test_completion_mode_renders_one_prompt(fake):
 def test_api_key_from_named_env_var(fake, monkeypatch):
     monkeypatch.setenv("XICM_TEST_KEY", "sk-test")
     llm(fake, api_key_env="XICM_TEST_KEY").complete(make_prompt())
-    assert fake.requests[-1]["headers"]["Authorization"] == "Bearer sk-test"
+    assert fake.requests[-1]["headers"]["authorization"] == "Bearer sk-test"
     monkeypatch.delenv("XICM_TEST_KEY")
     llm(fake, api_key_env="XICM_TEST_KEY").complete(make_prompt())  # missing key: fine for local servers
-    assert "Authorization" not in fake.requests[-1]["headers"]
+    assert "authorization" not in fake.requests[-1]["headers"]
 
 
 def test_retries_500_and_429_then_succeeds(fake):
@@ -172,30 +174,41 @@ def test_client_errors_are_not_retried(fake):
     assert len(fake.requests) == 1
 
 
-def test_malformed_json_is_retried_then_reported(fake):
+def test_a_reply_that_is_not_json_fails_at_once(fake):
     fake.script = [("raw", b"<html>oops")]
-    assert llm(fake, retries=1).complete(make_prompt()) == fake.reply
-    fake.script = [("raw", b"{not json")] * 2
-    with pytest.raises(LLMError, match="reply is not JSON"):
+    with pytest.raises(LLMError, match=r"failed after 1 attempt\(s\): reply is not JSON \(Expecting value"):
         llm(fake, retries=1).complete(make_prompt())
+    assert len(fake.requests) == 1
 
 
-def test_reply_without_choices_is_reported(fake):
-    fake.script = [("raw", b'{"object": "error"}')] * 2
+def test_reply_without_text_is_reported(fake):
+    fake.script = [("raw", b'{"object": "error"}')]
+    with pytest.raises(LLMError, match=r"sent a reply with no choices\[0\]\.message\.content: \{\"object\":\"error\"\}$"):
+        llm(fake, retries=1).complete(make_prompt())
+    fake.script = [("raw", b'{"choices": [{"message": {}}]}')]
     with pytest.raises(LLMError, match=r"no choices\[0\]\.message\.content"):
-        llm(fake, retries=1).complete(make_prompt())
+        llm(fake).complete(make_prompt())
     fake.script = [("raw", b'{"choices": [{"message": {"content": "hi"}}]}')]
     with pytest.raises(LLMError, match=r"no choices\[0\]\.text"):
         llm(fake, retries=0, mode="completion").complete(make_prompt())
+    fake.script = [("raw", b'{"choices": [{"message": {"content": 5}}]}')]
+    with pytest.raises(LLMError, match=r"content is a int, not a string"):
+        llm(fake).complete(make_prompt())
+    assert len(fake.requests) == 4  # none of them retried
+
+
+def test_a_null_text_is_an_empty_reply(fake):
+    fake.script = [("raw", b'{"choices": [{"message": {"content": null}}]}')]
+    assert llm(fake).complete(make_prompt()) == ""
 
 
 def test_timeout_is_bounded_and_retried(fake):
-    fake.script = [("sleep", 1.5), ("sleep", 1.5)]
+    fake.script = [("sleep", 3.0), ("sleep", 3.0)]
     client = llm(fake, timeout_s=0.3, retries=1)
     start = time.monotonic()
-    with pytest.raises(LLMError, match=r"no reply within timeout_s=0\.3"):
+    with pytest.raises(LLMError, match=r"failed after 2 attempt\(s\): no reply within timeout_s=0\.3"):
         client.complete(make_prompt())
-    assert time.monotonic() - start < 1.5
+    assert time.monotonic() - start < 2.5  # 2 x 0.3 s and one backoff, not a 3 s reply
     assert client.attempts_made == 2
     fake.script = [("sleep", 1.0)]
     assert llm(fake, timeout_s=0.3, retries=1).complete(make_prompt()) == fake.reply
@@ -205,8 +218,8 @@ def test_unreachable_server():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]  # closed again: nothing listens there
-    client = OpenAICompatibleLLM(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=1, backoff_s=0.0)
-    with pytest.raises(LLMError, match="failed after 2 attempt.*cannot connect"):
+    client = OpenAICompatibleLLM(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=1)
+    with pytest.raises(LLMError, match=r"failed after 2 attempt\(s\): cannot connect \(.*refused"):
         client.complete(make_prompt())
 
 
@@ -229,6 +242,8 @@ def test_config_errors_and_registration():
     assert not OpenAICompatibleLLM(model="m", temperature=0.7, top_p=0.9).deterministic
     with pytest.raises(ConfigError, match="unknown option.*timeout"):
         registry.create("llm", {"name": "openai_compatible", "model": "m", "timeout": 3})
+    with pytest.raises(ConfigError, match="unknown option.*backoff_s"):  # the openai client's backoff is not configurable
+        registry.create("llm", {"name": "openai_compatible", "model": "m", "backoff_s": 1.0})
 
 
 # ---------------------------------------------------------------- real `transformers serve`
@@ -252,8 +267,9 @@ def _wait_ready(url: str, proc: subprocess.Popen, deadline_s: float) -> float:
     raise AssertionError(f"transformers serve not ready within {deadline_s} s")
 
 
-@pytest.mark.slow
-def test_transformers_serve_embedded_model(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def served_model(tmp_path_factory):
+    """`transformers serve` on the embedded model: (model folder, base URL)."""
     pytest.importorskip("fastapi")
     pytest.importorskip("uvicorn")
     from transformers.utils.import_utils import is_serve_available
@@ -267,7 +283,7 @@ def test_transformers_serve_embedded_model(tmp_path, capsys):
     assert cli, "the transformers console script is not installed"
     port = _free_port()
     env = dict(os.environ, HF_HUB_OFFLINE="1")
-    log = open(tmp_path / "serve.log", "w+")
+    log = open(tmp_path_factory.mktemp("serve") / "serve.log", "w+")
     proc = subprocess.Popen(
         [cli, "serve", str(folder), "--host", "127.0.0.1", "--port", str(port), "--device", "cpu"],
         stdout=log,
@@ -276,30 +292,8 @@ def test_transformers_serve_embedded_model(tmp_path, capsys):
     )
     try:
         ready_s = _wait_ready(f"http://127.0.0.1:{port}/health", proc, deadline_s=180)
-        base = f"http://127.0.0.1:{port}/v1"
-        # The server is pinned to the folder: the request's model must be that path.
-        completion = OpenAICompatibleLLM(
-            model=str(folder), base_url=base, mode="completion", completion_format="raw",
-            temperature=0.0, top_p=None, max_tokens=24, timeout_s=300, retries=1,
-        )
-        demo = "close the red jar, jar [50, 20, 10], lid [40, 30, 10]>[[40, 30, 20, 0, 36, 0, 1]]\n"
-        messages = [{"role": "user", "content": demo + "close the blue jar, jar [30, 60, 10], lid [45, 35, 10]>"}]
-        start = time.monotonic()
-        first = completion.complete(make_prompt(messages))
-        first_s = time.monotonic() - start
-        second = completion.complete(make_prompt(messages))
-        with capsys.disabled():
-            print(f"\ntransformers serve: ready after {ready_s:.0f} s, first completion {first_s:.1f} s, reply {first!r}")
-        assert isinstance(first, str) and first.strip()
-        assert first == second  # greedy: same reply twice
-        # Chat mode: the embedded base model has no chat template, so the server answers 500.
-        chat = OpenAICompatibleLLM(model=str(folder), base_url=base, mode="chat", max_tokens=8, timeout_s=120, retries=0)
-        try:
-            reply = chat.complete(make_prompt(messages))
-        except LLMError as exc:
-            assert "HTTP 500" in str(exc)
-        else:
-            assert isinstance(reply, str)
+        print(f"\ntransformers serve: ready after {ready_s:.0f} s")
+        yield folder, f"http://127.0.0.1:{port}/v1"
     finally:
         proc.terminate()
         try:
@@ -310,6 +304,39 @@ def test_transformers_serve_embedded_model(tmp_path, capsys):
         log.seek(0)
         print(log.read()[-3000:])
         log.close()
+
+
+SERVED_MESSAGES = [{
+    "role": "user",
+    "content": "close the red jar, jar [50, 20, 10], lid [40, 30, 10]>[[40, 30, 20, 0, 36, 0, 1]]\n"
+    "close the blue jar, jar [30, 60, 10], lid [45, 35, 10]>",
+}]
+
+
+@pytest.mark.slow
+def test_transformers_serve_completes_greedily_the_same_twice(served_model, capsys):
+    folder, base = served_model
+    # The server is pinned to the folder: the request's model must be that path.
+    completion = OpenAICompatibleLLM(
+        model=str(folder), base_url=base, mode="completion", completion_format="raw",
+        temperature=0.0, top_p=None, max_tokens=24, timeout_s=300, retries=1,
+    )
+    start = time.monotonic()
+    first = completion.complete(make_prompt(SERVED_MESSAGES))
+    first_s = time.monotonic() - start
+    second = completion.complete(make_prompt(SERVED_MESSAGES))
+    with capsys.disabled():
+        print(f"\ntransformers serve: first completion {first_s:.1f} s, reply {first!r}")
+    assert isinstance(first, str) and first.strip()
+    assert first == second  # greedy: same reply twice
+
+
+@pytest.mark.slow
+def test_transformers_serve_refuses_chat_for_a_model_without_chat_template(served_model):
+    folder, base = served_model
+    chat = OpenAICompatibleLLM(model=str(folder), base_url=base, mode="chat", max_tokens=8, timeout_s=120, retries=0)
+    with pytest.raises(LLMError, match=r"/v1/chat/completions failed after 1 attempt\(s\): HTTP 500"):
+        chat.complete(make_prompt(SERVED_MESSAGES))
 
 
 def test_hydra_style_options_are_plain_json(fake):

@@ -7,12 +7,28 @@ def _rows(task, seed, outcomes):
     return [{"task": task, "seed": seed, "episode": i, "success": s, "error_kind": None if s else "max_steps"} for i, s in enumerate(outcomes)]
 
 
-def test_wilson_interval_known_values():
-    lo, hi = report.wilson_interval(5, 10)
-    assert lo == pytest.approx(0.2366, abs=1e-3) and hi == pytest.approx(0.7634, abs=1e-3)
+# (successes, n) -> the interval of the closed form the reports used before scipy (z = 1.96)
+WILSON_BEFORE = {
+    (0, 1): (0.0, 0.7934567085261071),
+    (1, 1): (0.20654329147389294, 1.0),
+    (0, 25): (0.0, 0.13319649395317873),
+    (25, 25): (0.8668035060468213, 1.0),
+    (5, 10): (0.23658959361548731, 0.7634104063845126),
+    (12, 25): (0.30031003928960015, 0.6650178204685269),
+    (3, 75): (0.013695816001486477, 0.11113168623083756),
+}
+
+
+@pytest.mark.parametrize("successes, n", sorted(WILSON_BEFORE))
+def test_wilson_interval_is_the_one_reports_always_had(successes, n):
+    lo, hi = report.wilson_interval(successes, n)
+    before_lo, before_hi = WILSON_BEFORE[successes, n]
+    assert lo == pytest.approx(before_lo, rel=1e-13, abs=1e-15) and hi == pytest.approx(before_hi, rel=1e-13)
+    assert (lo == 0.0) == (successes == 0) and (hi == 1.0) == (successes == n)
+
+
+def test_wilson_interval_of_no_episodes_is_empty():
     assert report.wilson_interval(0, 0) == (0.0, 0.0)
-    lo, hi = report.wilson_interval(0, 25)
-    assert lo == 0.0 and 0.1 < hi < 0.15
 
 
 def test_groups_are_means_over_tasks_then_mean_std_over_seeds():
@@ -52,3 +68,18 @@ def test_seconds_per_episode_per_stage():
     summary = report.summarise(rows, {"a": "level1"}, ["a"])
     assert summary["seconds"] == {"reset": 1.5, "llm": 1.5, "total": 4.0, "execute": 0.5}
     assert "Seconds per episode: reset 1.50, llm 1.50, execute 0.50; total 4.00." in report.markdown_table(summary)
+
+
+def test_report_command_has_help_and_refuses_a_folder_without_runs(tmp_path, capsys):
+    from xicm.core.cli import report_main
+
+    with pytest.raises(SystemExit) as done:
+        report_main(["--help"])
+    assert done.value.code == 0 and "usage: xicm-report [-h] [--merge OUT_DIR] DIR [DIR ...]" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as done:
+        report_main([])
+    assert done.value.code == 2 and "the following arguments are required: DIR" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as done:
+        report_main([str(tmp_path)])
+    err = capsys.readouterr().err
+    assert done.value.code == 2 and err == f"xicm: error: {tmp_path} has no episodes.jsonl and run.json, nor a folder below it; pass an xicm-eval output folder\n"

@@ -7,7 +7,8 @@ import re
 import pytest
 
 from xicm.core.cli import report_main
-from xicm.core.sweep import collect_sweep, find_runs
+from xicm.core.run_dir import find_runs
+from xicm.core.sweep import collect_sweep
 
 SPLITS = {"a": "level1", "b": "level2"}
 

@@ -9,7 +9,8 @@ from hydra import compose, initialize_config_module
 from hydra.core.hydra_config import HydraConfig
 
 import xicm.conf  # noqa: F401  (registers the configs' resolvers)
-from xicm.core.tracking import Tracker, job_overrides, short_label
+from xicm.core.run_dir import short_name
+from xicm.core.tracking import WANDB_LABEL_LIMIT, Tracker, current_job_overrides
 
 
 def _records(path: Path) -> list[bytes]:
@@ -69,7 +70,7 @@ def test_group_is_the_experiment_preset_else_the_benchmark(overrides, group):
 
 def test_job_overrides_leave_out_the_bookkeeping_keys():
     _hydra_cfg(["+experiment=smoke", "policy.k=6", "progress=false", "paths.data=/tmp/x", "tracking.mode=offline"])
-    assert job_overrides() == ["+experiment=smoke", "policy.k=6"]
+    assert current_job_overrides() == ["+experiment=smoke", "policy.k=6"]
 
 
 def test_offline_run_records_group_job_type_and_tags(tmp_path, monkeypatch):
@@ -83,8 +84,9 @@ def test_offline_run_records_group_job_type_and_tags(tmp_path, monkeypatch):
     assert tracker.finish().startswith("wandb (offline): ")
     run = offline_run_record(tmp_path)
     assert (run.run_group, run.job_type, run.display_name) == ("ablation_k", "policy.k=6", "ablation_k-job")
-    assert list(run.tags) == ["policy.k=6", short_label(long_override)]
-    assert len(short_label(long_override)) == 64 and short_label(long_override) != short_label(long_override + "x")
+    label = short_name(long_override, WANDB_LABEL_LIMIT)
+    assert list(run.tags) == ["policy.k=6", label]
+    assert len(label) == 64 and label != short_name(long_override + "x", WANDB_LABEL_LIMIT)
 
 
 def test_for_job_uses_the_config_and_the_hydra_overrides(tmp_path, monkeypatch):

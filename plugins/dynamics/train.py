@@ -14,7 +14,6 @@ frame) and `heldout.png` predicted vs real last frames.
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import time
 from dataclasses import dataclass
@@ -26,6 +25,7 @@ import torch
 import torch.nn.functional as F
 from omegaconf import DictConfig, OmegaConf
 
+from xicm.core.atomic import write_atomic, write_dir_atomic
 from xicm.core.errors import ConfigError
 from xicm.core.tracking import Tracker
 from xicm.plugins.dynamics import model as dm
@@ -45,16 +45,6 @@ def _checkpoints(folder: Path) -> list[tuple[int, Path]]:
         if p.is_dir() and p.name[5:].isdigit() and (p / STATE_FILE).exists() and (p / dm.META_FILE).exists():
             found.append((int(p.name[5:]), p))
     return sorted(found)
-
-
-def _write_dir_atomic(final: Path, write) -> None:
-    """write(tmp_folder), then rename it to `final` (replacing an older one)."""
-    tmp = final.with_name(final.name + ".tmp")
-    shutil.rmtree(tmp, ignore_errors=True)
-    write(tmp)
-    if final.exists():
-        shutil.rmtree(final)
-    os.replace(tmp, final)
 
 
 def _lr(step: int, base: float, warmup: int) -> float:
@@ -125,10 +115,10 @@ def run_training(cfg: DictConfig) -> dict[str, Any]:
         run = TrainingRun(unet, opt, scheduler, first, last, context, meta, train_cfg, ckpt_root, tracker, bool(cfg.progress))
         step, seconds = _train_loop(run, step, total, seconds)
         unet.eval()
-        _write_dir_atomic(out / "final", lambda d: dm.save_checkpoint(d, unet, scheduler, {**meta, "step": step, "train_seconds": seconds}))
+        write_dir_atomic(out / "final", lambda d: dm.save_checkpoint(d, unet, scheduler, {**meta, "step": step, "train_seconds": seconds}))
         quality = evaluate_heldout(unet, scheduler.config, meta, heldout, text, res, cfg.evaluation, out)
         summary = {"step": step, "train_seconds": round(seconds, 1), "final": str(out / "final"), **quality}
-        (out / "heldout.json").write_text(json.dumps(summary, indent=2), encoding="utf-8")
+        write_atomic(out / "heldout.json", json.dumps(summary, indent=2))
         tracker.summary({f"heldout/{k}": v for k, v in flat_figures(quality).items()})
         tracker.log_images([out / "heldout.png"] if (out / "heldout.png").exists() else [])
     finally:
@@ -265,7 +255,7 @@ def _save_checkpoint(root: Path, unet, scheduler, opt, meta, step: int, seconds:
         torch.save({"optimizer": opt.state_dict(), "step": step, "seconds": seconds}, folder / STATE_FILE)
 
     root.mkdir(parents=True, exist_ok=True)
-    _write_dir_atomic(root / f"step-{step:06d}", write)
+    write_dir_atomic(root / f"step-{step:06d}", write)
     for _old_step, folder in _checkpoints(root)[: -max(1, keep)]:
         shutil.rmtree(folder, ignore_errors=True)
 

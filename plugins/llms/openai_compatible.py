@@ -23,22 +23,22 @@ temperature (0.1), top_p (0.001), max_tokens (256)
 extra ({})
     More request fields merged into the body (e.g. ``seed``, ``stop``, ``repetition_penalty``).
 timeout_s (120)
-    Socket timeout of one attempt (connect, and each read).
-retries (3), backoff_s (1.0)
-    Retries after the first attempt on connection errors, timeouts, HTTP 408/409/429/5xx and
-    malformed replies, sleeping backoff_s * 2**attempt in between. Other HTTP errors (400,
-    401, 404, ...) fail at once. A failure raises xicm.core.errors.LLMError with one sentence
-    (the episode ends with error kind ``llm_error`` and the run goes on).
+    Timeout of one attempt (connect, and each read), in seconds.
+retries (3)
+    Retries after the first attempt, made by the `openai` client (its ``max_retries``): on
+    connection errors, timeouts and HTTP 408/409/429/5xx, after its exponential backoff (or
+    the server's Retry-After). Other HTTP errors (400, 401, 404, ...) and replies that are not
+    JSON or hold no text fail at once. A failure raises xicm.core.errors.LLMError
+    with one sentence (the episode ends with error kind ``llm_error`` and the run goes on).
+
+The HTTP client is the ``openai`` package (``pip install 'xicm[llm]'``), imported when the
+plugin is created, not when it is registered.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import socket
-import time
-import urllib.error
-import urllib.request
 from typing import Any
 
 from xicm.core.errors import ConfigError, LLMError
@@ -49,15 +49,10 @@ from xicm.plugins.llms.options import check_options, to_plain
 from xicm.plugins.llms.rendering import render_plain, render_raw
 
 MODES = {"chat": "/chat/completions", "completion": "/completions"}
-RETRY_STATUS = {408, 409, 429, 500, 502, 503, 504}
-
-
-class _Retryable(Exception):
-    """An attempt failed in a way that may pass on retry."""
 
 
 class OpenAICompatibleLLM(LLM):
-    """Client of an OpenAI-compatible HTTP endpoint (stdlib urllib, no SDK)."""
+    """Client of an OpenAI-compatible HTTP endpoint (the `openai` package's client)."""
 
     def __init__(
         self,
@@ -72,7 +67,6 @@ class OpenAICompatibleLLM(LLM):
         extra: dict[str, Any] | None = None,
         timeout_s: float = 120.0,
         retries: int = 3,
-        backoff_s: float = 1.0,
     ):
         if not model:
             raise ConfigError("llm 'openai_compatible' needs a model name (llm.model), e.g. the server's model id")
@@ -82,9 +76,12 @@ class OpenAICompatibleLLM(LLM):
             raise ConfigError(f"llm.completion_format '{completion_format}' is unknown; available: plain, raw")
         if not str(base_url).startswith(("http://", "https://")):
             raise ConfigError(f"llm.base_url '{base_url}' is not an http(s) URL")
+        try:
+            import openai
+        except ImportError:
+            raise ConfigError("llm 'openai_compatible' needs the openai package: pip install 'xicm[llm]'") from None
         self.model = str(model)
         self.base_url = str(base_url).rstrip("/")
-        self.api_key_env = api_key_env
         self.mode = mode
         self.completion_format = completion_format
         self.temperature = temperature
@@ -93,8 +90,22 @@ class OpenAICompatibleLLM(LLM):
         self.extra = to_plain(dict(extra or {}))
         self.timeout_s = float(timeout_s)
         self.retries = max(0, int(retries))
-        self.backoff_s = float(backoff_s)
-        self.attempts_made = 0  # attempts of the last call (for tests and logs)
+        self.attempts_made = 0  # HTTP requests sent by the last call, retries included
+        api_key = os.environ.get(api_key_env, "") if api_key_env else ""
+        # No key (fine for local servers): no Authorization header at all, as openai allows
+        # only when a request omits the header explicitly.
+        self._no_auth = {} if api_key else {"Authorization": openai.Omit()}
+        self._openai = openai
+        self._client = openai.OpenAI(
+            base_url=self.base_url,
+            api_key=api_key or "unused",
+            timeout=self.timeout_s,
+            max_retries=self.retries,
+            http_client=openai.DefaultHttpxClient(event_hooks={"request": [self._count_attempt]}),
+        )
+
+    def _count_attempt(self, _request) -> None:
+        self.attempts_made += 1
 
     @property
     def url(self) -> str:
@@ -107,82 +118,53 @@ class OpenAICompatibleLLM(LLM):
             self.top_p is not None and self.top_p <= 0.001
         )
 
-    def body(self, messages: list[dict[str, str]]) -> dict[str, Any]:
-        body: dict[str, Any] = {"model": self.model}
+    def request(self, messages: list[dict[str, str]]) -> dict[str, Any]:
+        """The keyword arguments of the openai create() call; `extra` goes into the body as is."""
+        request: dict[str, Any] = {"model": self.model, "stream": False}
         if self.mode == "chat":
-            body["messages"] = [{"role": m["role"], "content": m["content"]} for m in messages]
+            request["messages"] = [{"role": m["role"], "content": m["content"]} for m in messages]
         else:
             render = render_plain if self.completion_format == "plain" else render_raw
-            body["prompt"] = render(messages)
+            request["prompt"] = render(messages)
         for key in ("temperature", "top_p", "max_tokens"):
             value = getattr(self, key)
             if value is not None:
-                body[key] = value
-        body.update(self.extra)
-        body["stream"] = False
-        return body
-
-    def _headers(self) -> dict[str, str]:
-        headers = {"Content-Type": "application/json", "Accept": "application/json"}
-        key = os.environ.get(self.api_key_env, "") if self.api_key_env else ""
-        if key:
-            headers["Authorization"] = f"Bearer {key}"
-        return headers
+                request[key] = value
+        return {**request, "extra_body": self.extra, "extra_headers": self._no_auth}
 
     def complete(self, prompt: Prompt) -> str:
         return self.complete_messages(prompt.messages)
 
     def complete_messages(self, messages: list[dict[str, str]]) -> str:
-        """Reply to raw chat messages, retrying transient failures."""
-        data = json.dumps(self.body(messages)).encode()
-        last = "no attempt made"
+        """Reply to raw chat messages (the client retries transient failures)."""
+        openai = self._openai
+        endpoint = self._client.chat.completions if self.mode == "chat" else self._client.completions
         self.attempts_made = 0
-        for attempt in range(self.retries + 1):
-            if attempt:
-                time.sleep(self.backoff_s * 2 ** (attempt - 1))
-            self.attempts_made += 1
-            try:
-                return self._attempt(data)
-            except _Retryable as exc:
-                last = str(exc)
-        raise LLMError(f"{self.url} failed after {self.attempts_made} attempt(s): {last}")
+        try:
+            reply = endpoint.create(**self.request(messages))
+        except openai.APITimeoutError:
+            reason = f"no reply within timeout_s={self.timeout_s:g}"
+        except openai.APIConnectionError as exc:
+            reason = f"cannot connect ({exc.__cause__ or exc})"
+        except openai.APIStatusError as exc:
+            reason = f"HTTP {exc.status_code}{_error_detail(exc.response.text)}"
+        except (json.JSONDecodeError, openai.APIResponseValidationError) as exc:
+            reason = f"reply is not JSON ({' '.join(str(exc).split())[:120]})"
+        else:
+            return self._text(reply)
+        raise LLMError(f"{self.url} failed after {self.attempts_made} attempt(s): {reason}")
 
-    def _attempt(self, data: bytes) -> str:
-        request = urllib.request.Request(self.url, data=data, headers=self._headers(), method="POST")
+    def _text(self, reply) -> str:
+        where = "choices[0].message.content" if self.mode == "chat" else "choices[0].text"
         try:
-            with urllib.request.urlopen(request, timeout=self.timeout_s) as response:
-                raw = response.read()
-        except urllib.error.HTTPError as exc:
-            detail = _error_detail(exc)
-            if exc.code in RETRY_STATUS:
-                raise _Retryable(f"HTTP {exc.code}{detail}") from None
-            raise LLMError(f"{self.url} answered HTTP {exc.code}{detail}") from None
-        except (TimeoutError, socket.timeout):
-            raise _Retryable(f"no reply within timeout_s={self.timeout_s:g}") from None
-        except urllib.error.URLError as exc:
-            reason = exc.reason
-            if isinstance(reason, (TimeoutError, socket.timeout)):
-                raise _Retryable(f"no reply within timeout_s={self.timeout_s:g}") from None
-            raise _Retryable(f"cannot connect ({reason})") from None
-        except (ConnectionError, OSError) as exc:  # reset / closed mid-reply
-            raise _Retryable(f"connection error ({exc})") from None
-        return self._extract(raw)
-
-    def _extract(self, raw: bytes) -> str:
-        try:
-            reply = json.loads(raw)
-        except (json.JSONDecodeError, UnicodeDecodeError):
-            raise _Retryable(f"reply is not JSON: {raw[:80]!r}") from None
-        try:
-            choice = reply["choices"][0]
-            text = choice["message"]["content"] if self.mode == "chat" else choice["text"]
-        except (KeyError, IndexError, TypeError):
-            where = "choices[0].message.content" if self.mode == "chat" else "choices[0].text"
-            raise _Retryable(f"reply has no {where}: {json.dumps(reply)[:120]}") from None
+            choice = reply.choices[0]
+            text = _given(choice.message, "content") if self.mode == "chat" else _given(choice, "text")
+        except (AttributeError, IndexError, TypeError):
+            raise LLMError(f"{self.url} sent a reply with no {where}: {_shown(reply)}") from None
         if text is None:
-            text = ""
+            return ""
         if not isinstance(text, str):
-            raise _Retryable(f"reply text is a {type(text).__name__}, not a string")
+            raise LLMError(f"{self.url} sent a reply whose {where} is a {type(text).__name__}, not a string")
         return text
 
     def identity(self) -> str:
@@ -202,11 +184,24 @@ class OpenAICompatibleLLM(LLM):
         )
 
 
-def _error_detail(exc: urllib.error.HTTPError) -> str:
+def _given(model, field: str):
+    """model.field if the reply had that key (null included); the client reads a missing key as None."""
+    if field not in model.model_fields_set:
+        raise AttributeError(field)
+    return getattr(model, field)
+
+
+def _shown(reply) -> str:
     try:
-        text = exc.read().decode("utf-8", "replace").strip()
-    except Exception:
-        text = ""
+        text = reply.model_dump_json(exclude_none=True, warnings=False)
+    except Exception:  # noqa: BLE001 - only for the error message
+        text = repr(reply)
+    return text[:120]
+
+
+def _error_detail(text: str) -> str:
+    """' (message)' from an error body: its error.message when it is JSON, else the text."""
+    text = (text or "").strip()
     if not text:
         return ""
     try:

@@ -21,11 +21,11 @@ from __future__ import annotations
 import hashlib
 import os
 import re
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from xicm.core.atomic import write_atomic
 from xicm.core.errors import ConfigError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Encoder, Retriever
@@ -63,20 +63,6 @@ def normalise_rows(x: np.ndarray) -> np.ndarray:
     return x / np.maximum(norm, 1e-12)
 
 
-def save_npy_atomic(path: Path, array: np.ndarray) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.save(f, array)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 class SimilarityRetriever(Retriever):
     def __init__(self, encoder: Encoder | None = None, cache_dir: str | None = None, exclude_same_task: bool = False):
         if encoder is None:
@@ -109,7 +95,7 @@ class SimilarityRetriever(Retriever):
             feats = normalise_rows(self.encoder.encode([(d.first_rgb, d.instruction) for d in pool]))
             if len(feats) != len(pool):
                 raise RuntimeError(f"encoder returned {len(feats)} features for {len(pool)} demos")
-            save_npy_atomic(path, feats)
+            write_atomic(path, lambda f: np.save(f, feats))
         self.cache_path = path
         self._features = np.asarray(feats, np.float32)
         self._rows = {d.demo_id: i for i, d in enumerate(pool)}

@@ -1,6 +1,10 @@
+"""The episode loop: episodes.jsonl grows by one fsynced row per episode, and a re-run
+(after a kill, or with more keys) runs only the keys not in it."""
+
 import json
 
-from xicm.core import evaluate
+from xicm.core.episode_loop import run_episodes
+from xicm.core.run_dir import EPISODES, episode_keys
 from xicm.core.types import EpisodeResult
 
 
@@ -19,37 +23,29 @@ class Recorder:
 
 
 def test_resume_skips_finished_episodes_and_loses_none(tmp_path):
-    keys = evaluate.episode_keys(["a", "b"], [0, 1], 3)
+    keys = episode_keys(["a", "b"], [0, 1], 3)
     assert len(keys) == 12 and keys[0] == ("a", 0, 0) and keys[3] == ("b", 0, 0)
     first = Recorder(crash_at=("b", 0, 1))
     try:
-        evaluate.run_episodes(first, keys, tmp_path, progress=False)
+        run_episodes(first, keys, tmp_path, progress=False)
     except KeyboardInterrupt:
         pass
     assert len(first.calls) == 4
     second = Recorder()
-    rows = evaluate.run_episodes(second, keys, tmp_path, progress=False)
+    rows = run_episodes(second, keys, tmp_path, progress=False)
     assert second.calls == keys[4:]
     assert len(rows) == 12
-    lines = (tmp_path / evaluate.EPISODES_FILE).read_text().splitlines()
+    lines = (tmp_path / EPISODES).read_text().splitlines()
     assert len(lines) == 12 and len({(json.loads(l)["task"], json.loads(l)["seed"], json.loads(l)["episode"]) for l in lines}) == 12
 
 
 def test_a_torn_last_line_is_dropped_and_redone(tmp_path):
-    keys = evaluate.episode_keys(["a"], [0], 3)
-    evaluate.run_episodes(Recorder(), keys[:2], tmp_path, progress=False)
-    path = tmp_path / evaluate.EPISODES_FILE
+    keys = episode_keys(["a"], [0], 3)
+    run_episodes(Recorder(), keys[:2], tmp_path, progress=False)
+    path = tmp_path / EPISODES
     path.write_text(path.read_text() + '{"task": "a", "seed": 0, "epis')  # killed mid-write
     again = Recorder()
-    rows = evaluate.run_episodes(again, keys, tmp_path, progress=False)
+    rows = run_episodes(again, keys, tmp_path, progress=False)
     assert again.calls == [("a", 0, 2)]
     assert [r["episode"] for r in rows] == [0, 1, 2]
     assert all(json.loads(l) for l in path.read_text().splitlines())
-
-
-def test_atomic_json_write_leaves_no_temp_file(tmp_path):
-    target = tmp_path / "summary.json"
-    evaluate.write_json_atomic(target, {"x": 1})
-    evaluate.write_json_atomic(target, {"x": 2})
-    assert json.loads(target.read_text()) == {"x": 2}
-    assert [p.name for p in tmp_path.iterdir()] == ["summary.json"]
