@@ -1,9 +1,12 @@
 """The Hydra config tree of xicm (a package so that `initialize_config_module("xicm.conf")` and
-`pkg://xicm.conf` find it). Importing it registers the OmegaConf resolvers the configs use."""
+`pkg://xicm.conf` find it). Importing it registers the OmegaConf resolvers the configs use and
+stores config.yaml's schema (xicm.core.config_schema) in Hydra's ConfigStore."""
 
 import hashlib
 
 from omegaconf import OmegaConf
+
+from xicm.core.config_schema import store_schema
 
 
 def short_dirname(text: str, limit: int = 120) -> str:
@@ -24,3 +27,5 @@ if not OmegaConf.has_resolver("xicm_dirname"):
     OmegaConf.register_new_resolver("xicm_dirname", short_dirname)
 if not OmegaConf.has_resolver("xicm_first"):
     OmegaConf.register_new_resolver("xicm_first", first_set)
+
+store_schema()

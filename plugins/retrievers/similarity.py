@@ -22,7 +22,9 @@ import hashlib
 import os
 import re
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
@@ -75,6 +77,12 @@ def save_npy_atomic(path: Path, array: np.ndarray) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+@dataclass
+class SimilarityOptions:
+    cache_dir: Optional[str] = None  # None: $XICM_CACHE/features
+    exclude_same_task: bool = False
 
 
 class SimilarityRetriever(Retriever):
@@ -138,4 +146,4 @@ class SimilarityRetriever(Retriever):
 
 @hookimpl
 def register_retrievers(register):
-    register("similarity", SimilarityRetriever)
+    register("similarity", SimilarityRetriever, options=SimilarityOptions)

@@ -6,6 +6,7 @@ which are loaded only when a simulator is created or a task class is asked for.
 
 from xicm.core.hookspecs import hookimpl
 
+from .options import SapienOptions
 from .tasks import TASKS
 
 
@@ -18,7 +19,7 @@ def create_simulator(**options):
 
 @hookimpl
 def register_simulators(register):
-    register("sapien", create_simulator)
+    register("sapien", create_simulator, options=SapienOptions)
 
 
 @hookimpl
