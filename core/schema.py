@@ -12,10 +12,12 @@ rule checks the type itself (`number`, `rule(...)` with its own test).
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import json
+import types
 import typing
 from dataclasses import dataclass
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Callable, Collection, Iterable, Mapping
 
 from omegaconf import MISSING, DictConfig, ListConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
@@ -23,6 +25,7 @@ from omegaconf.errors import OmegaConfBaseException
 from xicm.core.errors import ConfigError
 
 RULE = "xicm_rule"  # the dataclass field metadata key of a Rule
+UNIONS = (typing.Union, types.UnionType)  # Optional[int] and int | None
 
 
 @dataclass(frozen=True)
@@ -74,7 +77,7 @@ _WORDS = {int: ("an integer", "integers"), float: ("a number", "numbers"), bool:
 def type_words(tp: Any, plural: bool = False) -> str:
     """'an integer', 'a list of strings', 'an integer or null', ... for an annotation."""
     origin, args = typing.get_origin(tp), typing.get_args(tp)
-    if origin is typing.Union:
+    if origin in UNIONS:
         inner = [a for a in args if a is not type(None)]
         return f"{type_words(inner[0], plural)} or null" if len(inner) == 1 else "values" if plural else "a value"
     if origin in (list, tuple):
@@ -104,7 +107,7 @@ def shown(value: Any) -> str:
 
 
 def _is_optional(tp: Any) -> bool:
-    return typing.get_origin(tp) is typing.Union and type(None) in typing.get_args(tp)
+    return typing.get_origin(tp) in UNIONS and type(None) in typing.get_args(tp)
 
 
 def _without_none(tp: Any) -> Any:
@@ -176,26 +179,31 @@ def check_config(cfg: DictConfig, schema: type, prefix: str = "") -> None:
 
 
 def leaf_field(schema: type, key: str) -> tuple[dataclasses.Field, Any] | None:
-    """The field a dotted key names, if it is a value (not a nested schema or a plugin's mapping)."""
-    *parents, last = key.split(".")
-    for part in parents:
-        found = _fields(schema).get(part)
-        if found is None or not dataclasses.is_dataclass(found[1]):
-            return None
-        schema = found[1]
-    found = _fields(schema).get(last)
-    if found is None or dataclasses.is_dataclass(found[1]) or typing.get_origin(found[1]) is dict:
-        return None
-    return found
+    """The field a dotted key names if it is a value, None if it is a nested schema or lies in a
+    plugin's mapping (whose keys the plugin's schema knows); ConfigError if the schema has no such key."""
+    parts = key.split(".")
+    for depth, part in enumerate(parts):
+        fields = _fields(schema)
+        if part not in fields:
+            guess = difflib.get_close_matches(part, fields, n=1)
+            where = ".".join(parts[:depth]) or "the config"
+            hint = f" (did you mean {'.'.join([*parts[:depth], guess[0]])}?)" if guess else ""
+            raise ConfigError(f"unknown key {key}{hint}; {where} has: {', '.join(fields)}")
+        _, tp = fields[part]
+        if not dataclasses.is_dataclass(tp):
+            return fields[part] if depth == len(parts) - 1 and typing.get_origin(tp) is not dict else None
+        schema = tp
+    return None
 
 
-def check_overrides(args: Iterable[str], schema: type) -> None:
+def check_overrides(args: Iterable[str], schema: type, groups: Collection[str] = ()) -> None:
     """Check the command line's values of a schema's keys before Hydra composes.
 
     Hydra would reject a value of the wrong type too, but in four lines without saying what is
-    allowed; this gives the one sentence (also for each value of a `-m` sweep). Anything that is
-    not a plain `key=value` of a typed key (flags, group choices, `+`/`~`, `hydra.*`,
-    interpolations, malformed overrides) is left to Hydra.
+    allowed; this gives the one sentence (also for each value of a `-m` sweep, and for a key the
+    schema does not have). Anything else (flags, group choices, `+`/`~`, `hydra.*`, keys inside a
+    plugin's options, interpolations, malformed overrides, a config group the config does not
+    choose, e.g. `experiment=x` for `+experiment=x`: `groups`) is left to Hydra.
     """
     from hydra.core.override_parser.overrides_parser import OverridesParser
     from hydra.core.override_parser.types import QuotedString
@@ -208,6 +216,8 @@ def check_overrides(args: Iterable[str], schema: type) -> None:
         except HydraException:
             continue
         if override.is_delete() or override.is_add() or override.package is not None or override.is_hydra_override():
+            continue
+        if override.key_or_group.split(".")[0] in groups and override.key_or_group.split(".")[0] not in _fields(schema):
             continue
         found = leaf_field(schema, override.key_or_group)
         if found is None:

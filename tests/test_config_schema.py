@@ -22,6 +22,7 @@ CONF = Path(__file__).resolve().parents[1] / "conf"
 PLUGIN_GROUPS = ["simulator", "detector", "encoder", "retriever", "prompt", "llm", "policy"]
 SEEDS = "a non-empty list of distinct integers from 0 to 4294967295, e.g. [0,1,2]"
 IMAGE_SIZE = "an integer from 1 to 4096, or [height, width] of two such integers"
+TOP_KEYS = [f.name for f in dataclasses.fields(XicmConfig)]
 
 
 def _compose(overrides=()):
@@ -54,6 +55,7 @@ def _one_sentence(out) -> str:
         (["policy=oracle", "simulator.image_size=0"], f"simulator.image_size must be {IMAGE_SIZE}, not 0"),
         (["+llm.k=3"], "unknown option llm.k of llm 'nearest_demo'; available: demo_rank"),  # an option it does not take
         (["retriever.exclude_same_task=maybe"], "retriever.exclude_same_task must be true or false, not 'maybe'"),
+        (["episode=3"], f"unknown key episode (did you mean episodes?); the config has: {', '.join(TOP_KEYS)}"),
     ],
 )
 def test_xicm_eval_stops_at_start_with_one_sentence(tmp_path, args, sentence):
@@ -126,8 +128,24 @@ def test_what_the_command_line_check_leaves_to_hydra():
     """Group choices, flags, appends, interpolations and hydra.* are not values of the schema; a
     plugin's option (policy.k) is checked after composing; a malformed override is Hydra's to report."""
     args = ["-m", "--cfg", "job", "benchmark=level1", "llm=gemma3_270m", "+experiment=smoke", "~video",
-            "hydra.run.dir=x", "episodes=${max_steps}", "episodes=range(1,4)", "policy.k=0", "seeds=[0,"]
-    assert check_overrides(args, XicmConfig) is None
+            "hydra.run.dir=x", "episodes=${max_steps}", "episodes=range(1,4)", "policy.k=0", "seeds=[0,",
+            "experiment=smoke"]  # Hydra says: use +experiment=smoke
+    assert check_overrides(args, XicmConfig, groups={"experiment"}) is None
+
+
+@pytest.mark.parametrize(
+    "override, sentence",
+    [
+        ("collect.worker=2", "unknown key collect.worker (did you mean collect.workers?); collect has: "
+                             "demos_per_task, seed, max_attempts_factor, workers"),
+        ("video.colour=red", "unknown key video.colour; video has: enabled, camera, fps, every"),
+        ("retreiver=random", f"unknown key retreiver (did you mean retriever?); the config has: {', '.join(TOP_KEYS)}"),
+    ],
+)
+def test_a_key_the_config_does_not_have_is_one_sentence(override, sentence):
+    with pytest.raises(ConfigError) as err:
+        check_overrides([override], XicmConfig, groups={"experiment"})
+    assert str(err.value) == sentence
 
 
 # ------------------------------------------------------------------ plugins' options
