@@ -1,12 +1,16 @@
 """The Hydra config tree of xicm (a package so that `initialize_config_module("xicm.conf")` and
 `pkg://xicm.conf` find it). Importing it registers the OmegaConf resolvers the configs use and
-stores config.yaml's schema (xicm.core.config_schema) in Hydra's ConfigStore."""
+stores the schemas of config.yaml (xicm.core.config_schema) and of train_dynamics.yaml (the
+dynamics plugin's, xicm.plugins.dynamics.config_schema) in Hydra's ConfigStore."""
 
 import hashlib
 
+from importlib.resources import files
+
 from omegaconf import OmegaConf
 
-from xicm.core.config_schema import store_schema
+from xicm.core import config_schema
+from xicm.plugins.dynamics import config_schema as dynamics_schema
 
 
 def short_dirname(text: str, limit: int = 120) -> str:
@@ -28,4 +32,11 @@ if not OmegaConf.has_resolver("xicm_dirname"):
 if not OmegaConf.has_resolver("xicm_first"):
     OmegaConf.register_new_resolver("xicm_first", first_set)
 
-store_schema()
+
+def groups() -> set[str]:
+    """The config groups of this tree (its folders): a command-line key naming one is a group choice."""
+    return {p.name for p in files(__name__).iterdir() if p.is_dir() and not p.name.startswith("_")}
+
+
+config_schema.store_schema()
+dynamics_schema.store_schema()

@@ -22,14 +22,11 @@ def _fail(exc: Exception) -> None:
 
 def _check_command_line() -> None:
     """A command-line value of the wrong type or range, or an unknown key: one sentence, before Hydra composes."""
-    from importlib.resources import files
-
     from xicm.core.config_schema import XicmConfig
     from xicm.core.schema import check_overrides
 
-    groups = {p.name for p in files(xicm.conf).iterdir() if p.is_dir() and not p.name.startswith("_")}
     try:
-        check_overrides(sys.argv[1:], XicmConfig, groups)
+        check_overrides(sys.argv[1:], XicmConfig, xicm.conf.groups())
     except XicmError as exc:
         _fail(exc)
 

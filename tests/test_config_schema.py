@@ -307,3 +307,34 @@ def test_every_built_in_plugin_has_a_schema_that_matches_its_factory(kind, name,
             assert default is MISSING or default is dataclasses.MISSING, field_name
         else:
             assert default == (list(expected) if isinstance(expected, tuple) else expected), field_name
+
+
+# ------------------------------------------------------------------ xicm-train-dynamics (the dynamics plugin's config)
+def _compose_training(overrides=()):
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        return compose("train_dynamics", overrides=list(overrides))
+
+
+@pytest.mark.parametrize(
+    "override, sentence",
+    [
+        ("train.steps=0", "train.steps must be an integer >= 1, not 0"),
+        ("train.lr=0", "train.lr must be a number > 0, not 0.0"),
+        ("train.heldout_every=-1", "train.heldout_every must be an integer >= 0, not -1"),
+        ("evaluation.sample_steps=[1,0]", "evaluation.sample_steps must be a DDIM step count >= 1 or a non-empty list of them, not [1, 0]"),
+        ("dynamics_model.prediction=x0", "dynamics_model.prediction must be one of epsilon, v_prediction, sample, not 'x0'"),
+        ("tracking.mode=bogus", "tracking.mode must be one of offline, online, disabled, not 'bogus'"),
+    ],
+)
+def test_a_bad_training_value_stops_before_the_training(override, sentence):
+    from xicm.plugins.dynamics.config_schema import TrainDynamicsConfig
+
+    with pytest.raises(ConfigError) as err:
+        check_config(_compose_training([override]), TrainDynamicsConfig)
+    assert str(err.value) == sentence
+
+
+def test_xicm_train_dynamics_stops_at_start_with_one_sentence(tmp_path):
+    code = "import sys; from xicm.plugins.dynamics.cli import main; sys.argv[0] = 'xicm-train-dynamics'; main()"
+    out = subprocess.run([sys.executable, "-c", code, f"paths.data={tmp_path}", "train.steps=abc"], capture_output=True, text=True, cwd=tmp_path)
+    assert _one_sentence(out) == "xicm: error: train.steps must be an integer >= 1, not 'abc'"
