@@ -50,7 +50,10 @@ def shard_settings(cfg: DictConfig) -> ShardSettings:
         return ShardSettings()
     address = node.get("address")
     settings = ShardSettings(
-        str(node.backend), int(node.workers), None if address in (None, "") else str(address), float(node.cpus_per_worker)
+        str(node.get("backend", "local")),
+        int(node.get("workers", 1)),
+        None if address in (None, "") else str(address),
+        float(node.get("cpus_per_worker", 1.0)),
     )
     if settings.backend == "ray":
         try:

@@ -123,6 +123,7 @@ class TransformersLocalOptions:
     prefix_cache: bool = True
     draft_tokens: int = field(default=16, metadata=at_least(0))
 
+
 class TransformersLocalLLM(LLM):
     """A causal LM loaded with transformers in this process (lazily, on first use)."""
 
