@@ -1,9 +1,15 @@
 """The Hydra config tree of xicm (a package so that `initialize_config_module("xicm.conf")` and
-`pkg://xicm.conf` find it). Importing it registers the OmegaConf resolvers the configs use."""
+`pkg://xicm.conf` find it). Importing it registers the OmegaConf resolvers the configs use and
+stores the schemas of config.yaml (xicm.core.config_schema) and of train_dynamics.yaml (the
+dynamics plugin's, xicm.plugins.dynamics.config_schema) in Hydra's ConfigStore."""
+
+from importlib.resources import files
 
 from omegaconf import OmegaConf
 
+from xicm.core import config_schema
 from xicm.core.run_dir import FOLDER_NAME_LIMIT, overrides_outside_identity, short_name
+from xicm.plugins.dynamics import config_schema as dynamics_schema
 
 
 def first_set(*values):
@@ -23,3 +29,12 @@ if not OmegaConf.has_resolver("xicm_first"):
     OmegaConf.register_new_resolver("xicm_first", first_set)
 if not OmegaConf.has_resolver("xicm_outside_identity"):
     OmegaConf.register_new_resolver("xicm_outside_identity", excluded_from_folder_names)
+
+
+def groups() -> set[str]:
+    """The config groups of this tree (its folders): a command-line key naming one is a group choice."""
+    return {p.name for p in files(__name__).iterdir() if p.is_dir() and not p.name.startswith("_")}
+
+
+config_schema.store_schema()
+dynamics_schema.store_schema()

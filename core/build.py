@@ -9,9 +9,11 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
+from xicm.core.config_schema import XicmConfig
 from xicm.core.errors import ConfigError
 from xicm.core.interfaces import Policy, PolicyContext, Simulator
 from xicm.core.plugins import Registry, get_registry
+from xicm.core.schema import check_config
 
 
 def group_options(cfg: DictConfig, group: str) -> dict[str, Any]:
@@ -22,13 +24,16 @@ def group_options(cfg: DictConfig, group: str) -> dict[str, Any]:
 
 
 def check_run(cfg: DictConfig, registry: Registry, tasks: list[str]) -> None:
-    """Raise UnknownPluginError / ConfigError naming what exists, before anything is built.
+    """Raise UnknownPluginError / ConfigError naming what exists or is allowed, before anything is built.
 
-    A policy may register a `check(cfg, registry)` callable beside its factory to check the
-    groups and files it will build from (X-ICM: its parts and its pool).
+    The config's own keys are checked against xicm.core.config_schema, the simulator's and the
+    policy's options against their plugins' schemas. A policy may register a
+    `check(cfg, registry)` callable beside its factory to check the groups and files it will
+    build from (X-ICM: its parts and its pool).
     """
-    registry.get("simulator", cfg.simulator.name)
-    policy = registry.get("policy", cfg.policy.name)
+    check_config(cfg, XicmConfig)
+    registry.check_options("simulator", group_options(cfg, "simulator"))
+    policy = registry.check_options("policy", group_options(cfg, "policy"))
     check_tasks(registry, tasks, cfg.simulator.name)
     check = policy.extra.get("check")
     if check is not None:

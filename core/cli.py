@@ -9,7 +9,7 @@ from pathlib import Path
 import hydra
 from omegaconf import DictConfig
 
-import xicm.conf  # noqa: F401  (registers the configs' OmegaConf resolvers)
+import xicm.conf  # noqa: F401  (registers the configs' OmegaConf resolvers and schema)
 from xicm.core.errors import XicmError
 from xicm.core.plugins import UnknownPluginError
 
@@ -21,9 +21,31 @@ def _fail(exc: Exception) -> None:
     sys.exit(2)
 
 
+def _check_command_line() -> None:
+    """A command-line value of the wrong type or range, or an unknown key: one sentence, before Hydra composes."""
+    from xicm.core.config_schema import XicmConfig
+    from xicm.core.schema import check_overrides
+
+    try:
+        check_overrides(sys.argv[1:], XicmConfig, xicm.conf.groups())
+    except XicmError as exc:
+        _fail(exc)
+
+
+def eval_main() -> None:
+    """xicm-eval: evaluate a policy on the benchmark's tasks and print the success table."""
+    _check_command_line()
+    _eval_job()
+
+
+def collect_main() -> None:
+    """xicm-collect: record scripted demonstrations of benchmark.pool_tasks into pool_path (resumable)."""
+    _check_command_line()
+    _collect_job()
+
+
 @hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="config")
-def eval_main(cfg: DictConfig) -> None:
-    """Evaluate X-ICM on the benchmark's tasks and print the success table."""
+def _eval_job(cfg: DictConfig) -> None:
     from hydra.core.hydra_config import HydraConfig
 
     from xicm.core.eval_job import run_eval
@@ -41,8 +63,7 @@ def eval_main(cfg: DictConfig) -> None:
 
 
 @hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="config")
-def collect_main(cfg: DictConfig) -> None:
-    """Record scripted demonstrations of benchmark.pool_tasks into pool_path (resumable)."""
+def _collect_job(cfg: DictConfig) -> None:
     from xicm.core.collect_job import run_collect
 
     try:

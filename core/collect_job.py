@@ -9,18 +9,21 @@ from pathlib import Path
 from omegaconf import DictConfig
 
 from xicm.core import build
+from xicm.core.config_schema import XicmConfig
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import get_registry
+from xicm.core.schema import check_config
 
 
 def run_collect(cfg: DictConfig) -> dict[str, tuple[int, int]]:
     registry = get_registry()
+    check_config(cfg, XicmConfig)
     tasks = list(cfg.benchmark.pool_tasks)
     if not tasks:
         raise ConfigError(f"benchmark '{cfg.benchmark.name}' lists no pool_tasks to collect")
-    registry.get("simulator", cfg.simulator.name)
+    registry.check_options("simulator", build.group_options(cfg, "simulator"))
     build.check_tasks(registry, tasks, cfg.simulator.name)
-    registry.get("detector", cfg.detector.name)
+    registry.check_options("detector", build.group_options(cfg, "detector"))
 
     from xicm.core.collect import build_collector, collect, collect_parallel, collector_config
 
@@ -53,13 +56,5 @@ def run_collect(cfg: DictConfig) -> dict[str, tuple[int, int]]:
 
 
 def resolve_workers(value) -> int:
-    """collect.workers: a positive number, or 'auto' (one per CPU core)."""
-    if str(value) == "auto":
-        return max(1, os.cpu_count() or 1)
-    try:
-        workers = int(value)
-    except (TypeError, ValueError):
-        workers = 0
-    if workers < 1:
-        raise ConfigError(f"collect.workers must be a positive number or 'auto', not {value!r}")
-    return workers
+    """collect.workers (checked by the schema): a positive number, or 'auto' (one per CPU core)."""
+    return max(1, os.cpu_count() or 1) if value == "auto" else int(value)

@@ -127,12 +127,23 @@ class Registry:
         """The simulator options['name'] names, built as factory(**options, tasks=<its registered tasks>)."""
         return self.create("simulator", options, tasks=self.tasks(simulator=options.get("name")))
 
-    def create(self, kind: str, options: dict[str, Any], **deps: Any) -> Any:
-        """Build the plugin named by options['name'] with the remaining options."""
-        options = dict(options)
+    def check_options(self, kind: str, options: dict[str, Any]) -> Registration:
+        """The registration options['name'] picks, its other options checked against the schema it
+        registered (`options=`, a dataclass: xicm.core.schema); without one, create() finds out."""
         if "name" not in options:
             raise UnknownPluginError(f"the {kind} config has no 'name'; available: {', '.join(self.names(kind))}")
-        reg = self.get(kind, options.pop("name"))
+        reg = self.get(kind, options["name"])
+        if reg.extra.get("options") is not None:
+            from xicm.core.schema import check_options
+
+            values = {k: v for k, v in options.items() if k != "name"}
+            check_options(values, reg.extra["options"], prefix=kind, owner=f"{kind} '{reg.name}'")
+        return reg
+
+    def create(self, kind: str, options: dict[str, Any], **deps: Any) -> Any:
+        """Build the plugin named by options['name'] with the remaining options (checked first)."""
+        reg = self.check_options(kind, options)
+        options = {k: v for k, v in options.items() if k != "name"}
         from xicm.core.errors import ConfigError
 
         try:

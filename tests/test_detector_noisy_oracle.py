@@ -60,7 +60,16 @@ def test_drop_and_swap_rates():
     assert 10 <= swapped <= 30  # 40 scenes x 0.5 = 20 expected
 
 
-@pytest.mark.parametrize("option", [{"drop_prob": 1.5}, {"swap_prob": -0.1}, {"noise_cm": -1}])
-def test_bad_options_are_one_sentence(option):
-    with pytest.raises(ConfigError, match="noisy_oracle: "):
-        NoisyOracleDetector(**option)
+@pytest.mark.parametrize(
+    "option, sentence",
+    [
+        ({"drop_prob": 1.5}, "detector.drop_prob must be a number from 0 to 1, not 1.5"),
+        ({"swap_prob": -0.1}, "detector.swap_prob must be a number from 0 to 1, not -0.1"),
+        ({"noise_cm": -1}, "detector.noise_cm must be a number >= 0, not -1"),
+        ({"seed": -1}, "detector.seed must be an integer >= 0, not -1"),
+    ],
+)
+def test_bad_options_are_one_sentence(option, sentence):
+    with pytest.raises(ConfigError) as err:
+        get_registry().create("detector", {"name": "noisy_oracle", **option})
+    assert str(err.value) == sentence

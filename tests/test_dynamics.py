@@ -17,6 +17,7 @@ import torch  # noqa: E402
 from dynamics_fixtures import TASKS, frame, write_pool  # noqa: E402
 from xicm.core.dataset import load_pool  # noqa: E402
 from xicm.core.errors import ConfigError  # noqa: E402
+from xicm.core.plugins import get_registry  # noqa: E402
 from xicm.core.types import Query  # noqa: E402
 from xicm.plugins.dynamics.train import run_training  # noqa: E402
 from xicm.plugins.encoders.dynamics import DynamicsEncoder, resolve_checkpoint  # noqa: E402
@@ -197,8 +198,8 @@ def test_missing_models_and_bad_options_say_what_to_do(tmp_path, pool):
     shutil.rmtree(tmp_path / "m" / "final")
     with pytest.raises(ConfigError, match="step-000002"):
         resolve_checkpoint(tmp_path / "m")
-    with pytest.raises(ConfigError, match="predicted_frame"):
-        DynamicsEncoder(str(tmp_path / "m" / "checkpoints" / "step-000002"), mode="pixels")
+    with pytest.raises(ConfigError, match="^encoder.mode must be one of predicted_frame, unet_features, not 'pixels'$"):
+        get_registry().create("encoder", {"name": "dynamics", "checkpoint": str(tmp_path / "m"), "mode": "pixels"})
     from xicm.plugins.encoders.minilm import MiniLMEncoder
 
     with pytest.raises(ConfigError, match="encoder=dynamics"):

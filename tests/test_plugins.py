@@ -54,10 +54,15 @@ def test_unknown_name_lists_what_exists(registry):
     assert "nearest_demo" in message and "transformers_local" in message
 
 
-def test_a_throwaway_plugin_registers_and_unregisters():
+def _with_throwaway():
     pm = plugins.make_plugin_manager()
-    plugin = ThrowawayPlugin()
-    pm.register(plugin, name="throwaway")
+    pm.register(ThrowawayPlugin(), name="throwaway")
+    return pm
+
+
+def test_a_throwaway_plugin_registers_and_unregisters():
+    pm = _with_throwaway()
+    plugin = pm.get_plugin("throwaway")
     reg = plugins.Registry(pm)
     assert reg.create("llm", {"name": "echo_for_test", "reply": "hi"}).complete(None) == "hi"  # duck typing is enough
     with pytest.raises(ConfigError, match=r"llm 'not_an_llm' \(plugin throwaway\) built a str, which lacks complete of"):
@@ -161,10 +166,10 @@ def test_core_and_plugin_modules_import_no_heavy_library():
 
 
 def test_an_option_the_plugin_does_not_take_is_a_config_error(registry):
-    from xicm.core.errors import ConfigError
-
-    with pytest.raises(ConfigError, match="detector 'oracle' got an option it does not take: .*colour"):
+    with pytest.raises(ConfigError, match="^unknown option detector.colour of detector 'oracle'; available: cameras, min_pixels$"):
         registry.create("detector", {"name": "oracle", "colour": "red"})
+    with pytest.raises(ConfigError, match="^llm 'echo_for_test' got an option it does not take: .*'colour'"):
+        plugins.Registry(_with_throwaway()).create("llm", {"name": "echo_for_test", "colour": "red"})  # no schema
 
 
 def test_docs_list_every_hook_and_every_interface_method_with_its_signature():

@@ -54,16 +54,10 @@ def test_ray_is_imported_only_when_a_run_uses_it():
     assert out == "False"
 
 
-def test_settings_default_to_local_and_bad_values_fail_with_one_sentence():
+def test_settings_come_from_the_shards_keys():  # their bad values: tests/test_config_schema.py
     assert shard_settings(_compose()) == ShardSettings("local", 2, None, 1.0)
-    ray = shard_settings(_compose(["shards.backend=ray", "shards.workers=3", "shards.address=auto"]))
-    assert ray == ShardSettings("ray", 3, "auto", 1.0)
-    with pytest.raises(ConfigError, match="shards.backend 'dask' is unknown; available: local, ray"):
-        shard_settings(_compose(["shards.backend=dask"]))
-    with pytest.raises(ConfigError, match=r"shards.workers \(0\) must be >= 1"):
-        shard_settings(_compose(["shards.workers=0"]))
-    with pytest.raises(ConfigError, match="must be an integer"):
-        shard_settings(_compose(["shards.workers=many"]))
+    ray = shard_settings(_compose(["shards.backend=ray", "shards.workers=3", "shards.address=auto", "shards.cpus_per_worker=0.5"]))
+    assert ray == ShardSettings("ray", 3, "auto", 0.5)
 
 
 def test_sharding_does_not_change_what_a_run_is():

@@ -14,7 +14,6 @@ import pytest
 from xicm.core import video as video_module
 from xicm.plugins.policies.xicm.policy import XICMPolicy
 from xicm.core.episode import run_episode
-from xicm.core.errors import ConfigError
 from xicm.core.interfaces import LLM
 from xicm.core.plugins import get_registry
 from xicm.core.report import media_lines
@@ -110,14 +109,10 @@ def test_an_unknown_camera_is_a_video_error_not_an_episode_error(sim, tmp_path):
     assert result.success and "ceiling" in result.extra["video_error"]
 
 
-@pytest.mark.parametrize(
-    "video, message",
-    [({"enabled": True, "every": 0}, "video.every"), ({"enabled": True, "fps": -1}, "video.fps"), ({"enabled": True, "camera": ""}, "video.camera")],
-)
-def test_bad_video_settings_stop_with_one_sentence(tmp_path, video, message):
-    with pytest.raises(ConfigError, match=message):
-        VideoSettings.from_config({"video": video}, tmp_path)
-    assert VideoSettings.from_config({"video": {"enabled": False}}, tmp_path) is None
+def test_video_settings_come_from_the_video_keys(tmp_path):  # their bad values: tests/test_config_schema.py
+    video = {"enabled": True, "camera": "overhead", "fps": 12.5, "every": 3}
+    assert VideoSettings.from_config({"video": video}, tmp_path) == VideoSettings(tmp_path, "overhead", 12.5, 3)
+    assert VideoSettings.from_config({"video": {**video, "enabled": False}}, tmp_path) is None
 
 
 class _SameReply(LLM):

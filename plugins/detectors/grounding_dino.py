@@ -25,18 +25,30 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterable
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import List, Optional
 
 import numpy as np
 
 from xicm.core.errors import ConfigError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Detector
+from xicm.core.schema import between
 from xicm.core.types import CameraFrame, Observation
 
-from .oracle import backproject
+from .oracle import CAMERAS, backproject
 
 DEFAULT_MODEL = "IDEA-Research/grounding-dino-tiny"
+
+
+@dataclass
+class GroundingDinoOptions:
+    model: str = DEFAULT_MODEL
+    box_threshold: float = field(default=0.35, metadata=between(0, 1))  # sigmoid scores
+    text_threshold: float = field(default=0.25, metadata=between(0, 1))
+    cameras: Optional[List[str]] = field(default=None, metadata=CAMERAS)
+    device: str = "cpu"
 
 
 def load_grounding_dino(model: str, device: str = "cpu"):
@@ -147,4 +159,4 @@ class GroundingDinoDetector(Detector):
 
 @hookimpl
 def register_detectors(register):
-    register("grounding_dino", GroundingDinoDetector)
+    register("grounding_dino", GroundingDinoDetector, options=GroundingDinoOptions)

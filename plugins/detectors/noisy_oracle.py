@@ -19,14 +19,23 @@ cameras and min_pixels.
 from __future__ import annotations
 
 import zlib
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from xicm.core.errors import ConfigError
 from xicm.core.hookspecs import hookimpl
+from xicm.core.schema import at_least, between
 from xicm.core.types import Observation
 
-from .oracle import OracleDetector
+from .oracle import OracleDetector, OracleOptions
+
+
+@dataclass
+class NoisyOracleOptions(OracleOptions):
+    noise_cm: float = field(default=0.0, metadata=at_least(0))
+    drop_prob: float = field(default=0.0, metadata=between(0, 1))
+    swap_prob: float = field(default=0.0, metadata=between(0, 1))
+    seed: int = field(default=0, metadata=at_least(0))  # numpy seeds are non-negative
 
 
 class NoisyOracleDetector(OracleDetector):
@@ -42,11 +51,6 @@ class NoisyOracleDetector(OracleDetector):
         super().__init__(cameras=cameras, min_pixels=min_pixels)
         self.noise_m = float(noise_cm) / 100.0
         self.drop_prob, self.swap_prob = float(drop_prob), float(swap_prob)
-        for label, p in (("drop_prob", self.drop_prob), ("swap_prob", self.swap_prob)):
-            if not 0.0 <= p <= 1.0:
-                raise ConfigError(f"noisy_oracle: {label} must lie in [0, 1], not {p}")
-        if self.noise_m < 0:
-            raise ConfigError(f"noisy_oracle: noise_cm must be >= 0, not {noise_cm}")
         self.seed = int(seed)
 
     def detect(self, obs: Observation, names: list[str]) -> dict[str, tuple[float, float, float]]:
@@ -72,4 +76,4 @@ def scene_key(objects: dict[str, tuple[float, float, float]]) -> int:
 
 @hookimpl
 def register_detectors(register):
-    register("noisy_oracle", NoisyOracleDetector)
+    register("noisy_oracle", NoisyOracleDetector, options=NoisyOracleOptions)

@@ -16,12 +16,24 @@ Options:
 from __future__ import annotations
 
 from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import List, Optional
 
 import numpy as np
 
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Detector
+from xicm.core.schema import at_least, rule
 from xicm.core.types import CameraFrame, Observation
+
+#: which cameras a detector may use (their names are the simulator's, checked when it observes)
+CAMERAS = rule(lambda v: len(v) > 0 and len(set(v)) == len(v), "a non-empty list of distinct camera names")
+
+
+@dataclass
+class OracleOptions:
+    cameras: Optional[List[str]] = field(default=None, metadata=CAMERAS)
+    min_pixels: int = field(default=1, metadata=at_least(1))
 
 
 def backproject(frame: CameraFrame, mask: np.ndarray) -> np.ndarray:
@@ -84,4 +96,4 @@ class OracleDetector(Detector):
 
 @hookimpl
 def register_detectors(register):
-    register("oracle", OracleDetector)
+    register("oracle", OracleDetector, options=OracleOptions)

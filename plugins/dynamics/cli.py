@@ -7,14 +7,24 @@ import sys
 import hydra
 from omegaconf import DictConfig
 
-import xicm.conf  # noqa: F401  (registers the configs' OmegaConf resolvers)
+import xicm.conf  # registers the configs' OmegaConf resolvers and schemas
 from xicm.core.errors import XicmError
 from xicm.core.plugins import UnknownPluginError
+from xicm.core.schema import check_overrides
+from xicm.plugins.dynamics.config_schema import TrainDynamicsConfig
+
+
+def main() -> None:
+    """Train the dynamics model of demonstration selection on a pool (resumable)."""
+    try:  # a command-line value of the wrong type or range: one sentence, before Hydra composes
+        check_overrides(sys.argv[1:], TrainDynamicsConfig, xicm.conf.groups())
+    except XicmError as exc:
+        _fail(str(exc))
+    _train_job()
 
 
 @hydra.main(version_base="1.3", config_path="../../conf", config_name="train_dynamics")
-def main(cfg: DictConfig) -> None:
-    """Train the dynamics model of demonstration selection on a pool (resumable)."""
+def _train_job(cfg: DictConfig) -> None:
     try:
         from .train import run_training
     except ImportError as exc:

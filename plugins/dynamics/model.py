@@ -20,6 +20,7 @@ import torch
 import torch.nn.functional as F
 
 from xicm.core.errors import ConfigError
+from xicm.plugins.dynamics.config_schema import PREDICTIONS
 
 META_FILE = "dynamics.json"
 
@@ -57,9 +58,6 @@ def train_scheduler(meta: dict[str, Any]):
         prediction_type=prediction_type(meta),
         **sample_clip(meta),
     )
-
-
-PREDICTIONS = ("epsilon", "v_prediction", "sample")
 
 
 def prediction_type(meta: dict[str, Any]) -> str:
@@ -118,9 +116,6 @@ def _item_noise(n: int, shape: tuple[int, ...], seed: int) -> torch.Tensor:
     """The same starting noise for every item: features do not depend on batch composition."""
     g = torch.Generator().manual_seed(int(seed))
     return torch.randn((1, *shape), generator=g).expand(n, *shape).contiguous()
-
-
-TARGETS = ("residual", "frame")
 
 
 def encode_target(first: torch.Tensor, last: torch.Tensor, meta: dict[str, Any]) -> torch.Tensor:

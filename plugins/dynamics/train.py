@@ -27,8 +27,10 @@ from omegaconf import DictConfig, OmegaConf
 
 from xicm.core.atomic import write_atomic, write_dir_atomic
 from xicm.core.errors import ConfigError
+from xicm.core.schema import check_config
 from xicm.core.tracking import Tracker
 from xicm.plugins.dynamics import model as dm
+from xicm.plugins.dynamics.config_schema import TrainDynamicsConfig
 from xicm.plugins.dynamics.data import Pairs, load_pairs, split
 from xicm.plugins.dynamics.images import to_model, to_uint8
 from xicm.plugins.dynamics.quality import comparison_picture, mse, ssim
@@ -61,11 +63,11 @@ def _step_batch(seed: int, step: int, n: int, batch: int, shape: tuple[int, ...]
 
 
 def run_training(cfg: DictConfig) -> dict[str, Any]:
+    check_config(cfg, TrainDynamicsConfig)  # a bad value stops here, not after the training
     train_cfg, model_cfg = cfg.train, OmegaConf.to_container(cfg.dynamics_model, resolve=True)
     if train_cfg.threads:
         torch.set_num_threads(int(train_cfg.threads))
     res = int(model_cfg["resolution"])
-    _step_counts(cfg.evaluation.sample_steps)  # a bad value stops here, not after the training
     tasks = list(cfg.tasks) if cfg.get("tasks") else None
     pairs = load_pairs(cfg.pool_path, tasks)
     train_set, heldout = split(pairs, int(train_cfg.heldout_every))
@@ -74,8 +76,6 @@ def run_training(cfg: DictConfig) -> dict[str, Any]:
     context, _ = embed_unique(text, train_set.instructions)
     first, last = to_model(train_set.first, res), to_model(train_set.last, res)
     target = str(model_cfg.get("target", "residual"))
-    if target not in dm.TARGETS:
-        raise ConfigError(f"dynamics_model.target must be one of {', '.join(dm.TARGETS)}, got '{target}'")
     meta = {
         "target": target,
         "target_scale": round(1.0 / max(float((last - first).std()), 1e-3), 4),
@@ -307,10 +307,8 @@ def evaluate_heldout(unet, scheduler_config, meta: dict[str, Any], heldout: Pair
 
 
 def _step_counts(value) -> list[int]:
-    counts = [int(v) for v in (value if OmegaConf.is_list(value) or isinstance(value, (list, tuple)) else [value])]
-    if not counts or min(counts) < 1:
-        raise ConfigError(f"evaluation.sample_steps must be a step count >= 1 or a list of them, got {value}")
-    return counts
+    """evaluation.sample_steps (checked by the schema): one count or a list of them."""
+    return [int(v) for v in (value if OmegaConf.is_list(value) or isinstance(value, (list, tuple)) else [value])]
 
 
 def flat_figures(quality: dict[str, Any]) -> dict[str, float]:

@@ -27,16 +27,31 @@ Options:
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from omegaconf import MISSING
 
 from xicm.core.errors import ConfigError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Encoder
+from xicm.core.schema import at_least, between, one_of
 
 MODES = ("predicted_frame", "unet_features")
 VISUALS = ("final", "change")
+
+
+@dataclass
+class DynamicsEncoderOptions:
+    checkpoint: str = MISSING
+    mode: str = field(default="predicted_frame", metadata=one_of(*MODES))
+    visual: str = field(default="change", metadata=one_of(*VISUALS))
+    steps: int = field(default=1, metadata=at_least(1))
+    seed: int = 0
+    text_weight: float = field(default=0.5, metadata=between(0, 1))
+    batch_size: int = field(default=64, metadata=at_least(1))
+    device: str = "cpu"
 _models: dict[tuple[str, str], object] = {}
 _lock = threading.Lock()
 
@@ -78,14 +93,6 @@ class DynamicsEncoder(Encoder):
         batch_size: int = 64,
         device: str = "cpu",
     ):
-        if mode not in MODES:
-            raise ConfigError(f"dynamics encoder: unknown mode '{mode}'; choose one of {', '.join(MODES)}")
-        if visual not in VISUALS:
-            raise ConfigError(f"dynamics encoder: unknown visual '{visual}'; choose one of {', '.join(VISUALS)}")
-        if not 0.0 <= float(text_weight) <= 1.0:
-            raise ConfigError(f"dynamics encoder: text_weight must be in [0, 1], got {text_weight}")
-        if int(steps) < 1 or int(batch_size) < 1:
-            raise ConfigError("dynamics encoder: steps and batch_size must be >= 1")
         from xicm.plugins.dynamics.model import checkpoint_hash, read_meta
 
         self.folder = resolve_checkpoint(checkpoint)
@@ -155,4 +162,4 @@ def _scheduler_config(folder: Path) -> dict:
 
 @hookimpl
 def register_encoders(register):
-    register("dynamics", DynamicsEncoder)
+    register("dynamics", DynamicsEncoder, options=DynamicsEncoderOptions)

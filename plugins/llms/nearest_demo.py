@@ -22,12 +22,13 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass, field
 
 from xicm.core.encoding import format_actions
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import LLM
+from xicm.core.schema import at_least
 from xicm.core.types import Demo, KeyAction, Prompt, Query
-from xicm.plugins.llms.options import check_options
 
 
 def _nearest(objects: dict[str, tuple[float, float, float]], point) -> str:
@@ -57,6 +58,11 @@ def reanchor(demo: Demo, query: Query) -> list[KeyAction]:
     return actions
 
 
+@dataclass
+class NearestDemoOptions:
+    demo_rank: int = field(default=0, metadata=at_least(0))  # 0: the best retrieved demo
+
+
 class NearestDemoLLM(LLM):
     """Replays the best retrieved demo re-anchored on the query objects; needs no model."""
 
@@ -77,11 +83,6 @@ class NearestDemoLLM(LLM):
         return json.dumps({"llm": "nearest_demo", "demo_rank": self.demo_rank}, sort_keys=True)
 
 
-def create(**options) -> NearestDemoLLM:
-    check_options("nearest_demo", NearestDemoLLM, options)
-    return NearestDemoLLM(**options)
-
-
 @hookimpl
 def register_llms(register):
-    register("nearest_demo", create)
+    register("nearest_demo", NearestDemoLLM, options=NearestDemoOptions)

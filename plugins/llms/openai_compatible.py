@@ -45,7 +45,8 @@ from xicm.core.errors import ConfigError, LLMError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import LLM
 from xicm.core.types import Prompt
-from xicm.plugins.llms.options import check_options, to_plain
+from xicm.plugins.llms.openai_compatible_options import OpenAICompatibleOptions
+from xicm.plugins.llms.options import to_plain
 from xicm.plugins.llms.rendering import render_plain, render_raw
 
 MODES = {"chat": "/chat/completions", "completion": "/completions"}
@@ -215,11 +216,6 @@ def _error_detail(text: str) -> str:
     return f" ({' '.join(text.split())[:160]})"
 
 
-def create(**options: Any) -> OpenAICompatibleLLM:
-    check_options("openai_compatible", OpenAICompatibleLLM, options)
-    return OpenAICompatibleLLM(**options)
-
-
 @hookimpl
 def register_llms(register):
-    register("openai_compatible", create)
+    register("openai_compatible", OpenAICompatibleLLM, options=OpenAICompatibleOptions)

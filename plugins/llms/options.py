@@ -1,24 +1,9 @@
-"""Option checking shared by the LLM plugin factories: unknown config keys fail with one sentence."""
+"""Option values shared by the LLM plugins (each plugin's options schema sits beside it and is
+checked by the registry before the LLM is built)."""
 
 from __future__ import annotations
 
-import inspect
 from typing import Any
-
-from xicm.core.errors import ConfigError
-
-
-def check_options(plugin: str, cls: type, options: dict[str, Any]) -> None:
-    """Raise ConfigError naming the unknown options and the accepted ones."""
-    params = inspect.signature(cls.__init__).parameters
-    accepted = [p for p in params if p != "self" and params[p].kind is not inspect.Parameter.VAR_KEYWORD]
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
-        return
-    unknown = sorted(set(options) - set(accepted))
-    if unknown:
-        raise ConfigError(
-            f"unknown option(s) {', '.join(unknown)} for llm '{plugin}'; available: {', '.join(accepted)}"
-        )
 
 
 def to_plain(value: Any) -> Any:

@@ -79,21 +79,50 @@ import hashlib
 import json
 import os
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Optional
 
 from xicm.core.errors import ConfigError, LLMError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import LLM
+from xicm.core.schema import above, at_least, one_of, rule
 from xicm.core.types import Prompt
 from xicm.plugins.llms import model_files, stopping
-from xicm.plugins.llms.options import check_options, to_plain
+from xicm.plugins.llms.options import to_plain
 from xicm.plugins.llms.prefix_cache import PrefixCache
 from xicm.plugins.llms.rendering import fold_system, render_plain, render_raw
 
 CHAT_TEMPLATE_MODES = ("auto", "tokenizer", "plain", "raw")
 ROLE_STOPS = ("\nUser:", "\nSystem:", "\nAssistant:")
 OVERFLOW_MODES = ("error", "truncate_left")
+
+
+@dataclass
+class TransformersLocalOptions:
+    """The options above, as the registry checks them before anything is built."""
+
+    model: str = model_files.EMBEDDED
+    cache_dir: Optional[str] = None
+    max_new_tokens: int = field(default=256, metadata=at_least(1))
+    do_sample: bool = False
+    temperature: float = field(default=0.1, metadata=above(0))  # transformers refuses 0 when sampling
+    top_p: float = field(default=0.001, metadata=rule(lambda v: 0 < v <= 1, "a number > 0 and <= 1"))
+    repetition_penalty: float = field(default=1.05, metadata=above(0))
+    seed: int = 0
+    max_prompt_tokens: Optional[int] = field(default=None, metadata=at_least(1))
+    prompt_overflow: str = field(default="error", metadata=one_of(*OVERFLOW_MODES))
+    chat_template: str = "auto"  # a mode or a Jinja template: checked by the LLM itself
+    stop: Any = "auto"  # 'auto', null, a string or a list of strings: checked by the LLM itself
+    dtype: str = "float32"
+    device: str = "auto"
+    torch_threads: Optional[int] = field(default=None, metadata=at_least(1))
+    trust_remote_code: bool = False
+    fast: bool = True
+    stop_at_action_list: bool = True
+    prefix_cache: bool = True
+    draft_tokens: int = field(default=16, metadata=at_least(0))
+
 
 class TransformersLocalLLM(LLM):
     """A causal LM loaded with transformers in this process (lazily, on first use)."""
@@ -126,12 +155,6 @@ class TransformersLocalLLM(LLM):
                 f"llm.chat_template '{chat_template}' is neither a Jinja template nor one of: "
                 f"{', '.join(CHAT_TEMPLATE_MODES)}"
             )
-        if prompt_overflow not in OVERFLOW_MODES:
-            raise ConfigError(f"llm.prompt_overflow '{prompt_overflow}' is unknown; available: {', '.join(OVERFLOW_MODES)}")
-        if int(max_new_tokens) < 1:
-            raise ConfigError(f"llm.max_new_tokens must be at least 1, got {max_new_tokens}")
-        if int(draft_tokens) < 0:
-            raise ConfigError(f"llm.draft_tokens must be 0 (off) or more, got {draft_tokens}")
         self.model_option = str(model)
         self.cache_dir = cache_dir
         self.max_new_tokens = int(max_new_tokens)
@@ -485,14 +508,9 @@ class TransformersLocalLLM(LLM):
         return True
 
 
-def create(**options: Any) -> TransformersLocalLLM:
-    check_options("transformers_local", TransformersLocalLLM, options)
-    return TransformersLocalLLM(**options)
-
-
 @hookimpl
 def register_llms(register):
-    register("transformers_local", create)
+    register("transformers_local", TransformersLocalLLM, options=TransformersLocalOptions)
 
 
 if __name__ == "__main__":  # print the converted embedded model folder, converting it if needed

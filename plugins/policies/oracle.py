@@ -7,6 +7,8 @@ simulator that implements `scripted_solution()`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from xicm.core.errors import EpisodeFailure
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Policy, PolicyContext, Simulator
@@ -29,6 +31,11 @@ class OraclePolicy(Policy):
         return [action]
 
 
+@dataclass
+class OraclePolicyOptions:
+    """No options: the solution comes from the simulator."""
+
+
 @hookimpl
 def register_policies(register):
-    register("oracle", lambda context: OraclePolicy(context.simulator))
+    register("oracle", lambda context: OraclePolicy(context.simulator), options=OraclePolicyOptions)

@@ -15,6 +15,9 @@ Options:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Optional
+
 from xicm.core import encoding
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Box, PromptBuilder
@@ -49,6 +52,11 @@ def demo_line(demo: Demo, workspace: Box) -> str:
     return f"{task_line(demo.instruction, demo.objects, workspace)} {encoding.format_actions(demo.key_actions, workspace)}"
 
 
+@dataclass
+class XicmPromptOptions:
+    system_prompt: Optional[str] = None  # None: SYSTEM_PROMPT; "" sends no system message
+
+
 class XicmPromptBuilder(PromptBuilder):
     def __init__(self, system_prompt: str | None = None):
         self.system_prompt = SYSTEM_PROMPT if system_prompt is None else str(system_prompt)
@@ -65,4 +73,4 @@ class XicmPromptBuilder(PromptBuilder):
 
 @hookimpl
 def register_prompt_builders(register):
-    register("xicm", XicmPromptBuilder)
+    register("xicm", XicmPromptBuilder, options=XicmPromptOptions)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from xicm.core.errors import ConfigError
 from xicm.core.hookspecs import hookimpl
-from xicm.plugins.retrievers.similarity import SimilarityRetriever
+from xicm.plugins.retrievers.similarity import SimilarityOptions, SimilarityRetriever
 
 
 class DynamicsRetriever(SimilarityRetriever):
@@ -24,4 +24,4 @@ class DynamicsRetriever(SimilarityRetriever):
 
 @hookimpl
 def register_retrievers(register):
-    register("dynamics", DynamicsRetriever)
+    register("dynamics", DynamicsRetriever, options=SimilarityOptions)

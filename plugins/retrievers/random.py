@@ -10,6 +10,8 @@ Options:
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from xicm.core.hookspecs import hookimpl
@@ -29,6 +31,11 @@ def candidates(query: Query, pool: list[Demo], exclude_same_task: bool) -> list[
     return chosen
 
 
+@dataclass
+class RandomOptions:
+    exclude_same_task: bool = False
+
+
 class RandomRetriever(Retriever):
     def __init__(self, encoder=None, exclude_same_task: bool = False):
         self.exclude_same_task = bool(exclude_same_task)  # the encoder is not needed
@@ -42,4 +49,4 @@ class RandomRetriever(Retriever):
 
 @hookimpl
 def register_retrievers(register):
-    register("random", RandomRetriever)
+    register("random", RandomRetriever, options=RandomOptions)

@@ -21,7 +21,9 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
@@ -61,6 +63,12 @@ def normalise_rows(x: np.ndarray) -> np.ndarray:
     x = x.reshape(len(x), -1)  # e.g. latent images flattened
     norm = np.linalg.norm(x, axis=1, keepdims=True)
     return x / np.maximum(norm, 1e-12)
+
+
+@dataclass
+class SimilarityOptions:
+    cache_dir: Optional[str] = None  # None: $XICM_CACHE/features
+    exclude_same_task: bool = False
 
 
 class SimilarityRetriever(Retriever):
@@ -124,4 +132,4 @@ class SimilarityRetriever(Retriever):
 
 @hookimpl
 def register_retrievers(register):
-    register("similarity", SimilarityRetriever)
+    register("similarity", SimilarityRetriever, options=SimilarityOptions)

@@ -3,8 +3,22 @@ LLM groups over a demonstration pool (options in conf/policy/xicm.yaml)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+from typing import List, Optional
+
+from omegaconf import MISSING
+
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import PolicyContext
+from xicm.core.schema import at_least
+
+
+@dataclass
+class XicmPolicyOptions:
+    k: int = field(default=MISSING, metadata=at_least(1))  # demonstrations in the prompt
+    max_llm_calls: Optional[int] = field(default=MISSING, metadata=at_least(1))  # null: only max_steps limits
+    pool: str = MISSING
+    pool_tasks: List[str] = MISSING
 
 
 def create_xicm_policy(k: int, max_llm_calls: int | None, pool: str, pool_tasks: list[str], context: PolicyContext):
@@ -36,4 +50,4 @@ def check_xicm_config(cfg, registry) -> None:
 
 @hookimpl
 def register_policies(register):
-    register("xicm", create_xicm_policy, check=check_xicm_config)
+    register("xicm", create_xicm_policy, options=XicmPolicyOptions, check=check_xicm_config)

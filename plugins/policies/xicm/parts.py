@@ -23,12 +23,12 @@ def part_options(cfg: DictConfig, group: str) -> dict[str, Any]:
 
 
 def check_parts(cfg: DictConfig, registry: Registry, pool: str) -> None:
-    """Every part's plugin exists and the pool file is there (before anything is built)."""
+    """Every part's plugin exists and takes its options, and the pool file is there (before anything is built)."""
     for group in PART_GROUPS:
-        name = cfg[group].get("name")
-        if name is None and group == "encoder":  # retrievers that need no encoder
+        options = part_options(cfg, group)
+        if options.get("name") is None and group == "encoder":  # retrievers that need no encoder
             continue
-        registry.get(group, name)
+        registry.check_options(group, options)
     require_pool(pool)
 
 

@@ -6,6 +6,7 @@ factory and by a task's module, which is loaded on the task's first use (tasks.L
 
 from xicm.core.hookspecs import hookimpl
 
+from .options import SapienOptions
 from .tasks import builtin_tasks
 
 
@@ -18,7 +19,7 @@ def create_simulator(**options):
 
 @hookimpl
 def register_simulators(register):
-    register("sapien", create_simulator)
+    register("sapien", create_simulator, options=SapienOptions)
 
 
 @hookimpl

@@ -9,10 +9,10 @@ import sapien
 
 from xicm.core.types import CameraFrame
 
+from .options import CAMERA_NAMES
+
 #: SAPIEN cameras look along their local +x with +z up; OpenCV looks along +z with +y down.
 _GL_TO_CV = np.diag([1.0, -1.0, -1.0, 1.0])
-
-CAMERA_NAMES = ("front", "left_shoulder", "right_shoulder", "overhead", "wrist")
 
 
 @dataclass(frozen=True)
