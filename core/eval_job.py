@@ -16,6 +16,7 @@ from xicm.core.run_dir import RunDir, config_fingerprint, episode_keys
 from xicm.core.tracking import Tracker
 from xicm.core.video import VideoSettings
 
+
 def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     registry = get_registry()
     tasks = list(cfg.benchmark.tasks)

@@ -2,12 +2,12 @@
 takes it: pip-installed from its folder, listed by xicm-plugins, selected on the command line."""
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from plugin_install import install_beside
 
 pytestmark = pytest.mark.slow
 
@@ -18,15 +18,7 @@ BIN = Path(sys.executable).parent
 @pytest.fixture(scope="module")
 def installed(tmp_path_factory):
     """pip-install the example into its own folder; PYTHONPATH puts it beside this environment."""
-    target = tmp_path_factory.mktemp("site")
-    out = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "--no-index", "-q",
-         "--target", str(target), str(EXAMPLE)],
-        capture_output=True, text=True, timeout=300,
-    )
-    assert out.returncode == 0, out.stderr[-3000:]
-    path = os.pathsep.join(p for p in (str(target), os.environ.get("PYTHONPATH")) if p)  # keep a checkout first
-    return dict(os.environ, PYTHONPATH=path, WANDB_MODE="disabled")
+    return install_beside(EXAMPLE, tmp_path_factory.mktemp("site"))
 
 
 def test_xicm_plugins_lists_the_installed_plugin_with_its_version(installed):

@@ -3,12 +3,12 @@ temporary folder, pip-installed beside this environment, listed by xicm-plugins 
 by xicm-eval with policy=oracle (the task's own scripted solution)."""
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from plugin_install import install_beside
 
 pytestmark = pytest.mark.slow
 
@@ -98,15 +98,7 @@ def installed(tmp_path_factory):
     (source / "xicm_reach_marker").mkdir()
     (source / "xicm_reach_marker" / "__init__.py").write_text(PLUGIN)
     (source / "xicm_reach_marker" / "task.py").write_text(TASK)
-    target = tmp_path_factory.mktemp("site")
-    out = subprocess.run(
-        [sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "--no-index", "-q",
-         "--target", str(target), str(source)],
-        capture_output=True, text=True, timeout=300,
-    )
-    assert out.returncode == 0, out.stderr[-3000:]
-    path = os.pathsep.join(p for p in (str(target), os.environ.get("PYTHONPATH")) if p)
-    return dict(os.environ, PYTHONPATH=path, WANDB_MODE="disabled")
+    return install_beside(source, tmp_path_factory.mktemp("site"))
 
 
 def test_xicm_plugins_lists_the_task_of_the_installed_package(installed):
