@@ -20,9 +20,10 @@ TASKS = list(get_registry().tasks(simulator="sapien"))  # every task registered 
 # Free objects settle for a few physics steps at reset; PhysX's solver caches make those
 # steps repeat to ~1e-4 m (not bit-exactly) once the scene has run other episodes.
 SETTLE_TOL = 1e-3
-# unplug_charger's charger rests wedged in its socket: its settle repeats only to ~1e-3
-# (1.1e-3 in a quaternion component measured after the other tasks' episodes in name order).
-SETTLE_TOL_BY_TASK = {"unplug_charger": 2e-3}
+# unplug_charger's charger rests wedged in its socket: its position repeats to ~1e-4 m, but its
+# orientation depends on what the process simulated before (measured: 1.1e-3 in a quaternion
+# component across processes; 7.7e-3 in one process after the full suite's earlier tests).
+SETTLE_TOL_BY_TASK = {"unplug_charger": 1e-2}
 
 
 def scene_state(sim) -> np.ndarray:
@@ -46,7 +47,7 @@ def test_seeded_reset_is_reproducible(sim, task):
     sim.reset_state(task, 7, 1)
     other_episode = scene_state(sim)
     again = sim.reset(task, 7, 0)
-    np.testing.assert_allclose(a, scene_state(sim), rtol=0, atol=SETTLE_TOL)
+    np.testing.assert_allclose(a, scene_state(sim), rtol=0, atol=SETTLE_TOL_BY_TASK.get(task, SETTLE_TOL))
     assert first.instruction == again.instruction
     diff = np.abs(first.cameras["front"].rgb.astype(int) - again.cameras["front"].rgb.astype(int))
     assert np.mean(diff > 8) < 0.01  # at most a few edge pixels move with sub-mm settling
