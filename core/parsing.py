@@ -9,6 +9,7 @@ from xicm.core import encoding
 from xicm.core.types import KeyAction
 
 MAX_ACTIONS = 26  # upstream keeps at most 26 actions from one reply
+RANGES = "position 0-99, rotation 0-72, gripper 0/1"
 
 # An innermost bracketed group: '[' then anything but brackets then ']'.
 _INNERMOST = re.compile(r"\[([^\[\]]*)\]")
@@ -35,20 +36,69 @@ def parse_action_ints(text: str, max_actions: int = MAX_ACTIONS) -> list[list[in
     return found
 
 
-def parse_actions(text: object, workspace: encoding.Box, max_actions: int = MAX_ACTIONS) -> list[KeyAction] | ParseError:
-    """Key actions decoded from the reply, or a ParseError with the reason."""
+def parse_actions(
+    text: object, workspace: encoding.Box, max_actions: int = MAX_ACTIONS, partial: bool = False
+) -> list[KeyAction] | ParseError:
+    """Key actions decoded from the reply, or a ParseError with the reason.
+
+    By default one out-of-range group rejects the whole reply. With partial=True the groups before
+    the first invalid one are kept (as X-ICM executes a reply's actions in order until one fails);
+    an invalid one is a 7-item group that is out of range or not all integers. A reply with no valid
+    group before that is still a ParseError. `partial_stop` tells why a partial reply was cut.
+    """
     if not isinstance(text, str):
         return ParseError(f"the reply is {type(text).__name__}, not text")
     if not text.strip():
         return ParseError("the reply is empty")
+    if partial:
+        return _parse_prefix(text, workspace, max_actions)
     groups = parse_action_ints(text, max_actions)
     if not groups:
-        snippet = text.strip().replace("\n", " ")[:80]
-        return ParseError(f"no [x, y, z, roll, pitch, yaw, gripper] group of 7 integers in the reply: {snippet!r}")
+        return _no_group(text)
     out_of_range = [g for g in groups if not _in_range(g)]
     if out_of_range:
-        return ParseError(f"action {out_of_range[0]} is out of range (position 0-99, rotation 0-72, gripper 0/1)")
+        return ParseError(f"action {out_of_range[0]} is out of range ({RANGES})")
     return [encoding.ints_to_action(g, workspace) for g in groups]
+
+
+def partial_stop(text: str, max_actions: int = MAX_ACTIONS) -> str | None:
+    """Why a partial parse stopped early (its first invalid 7-item group), or None if it did not."""
+    return _valid_prefix(text, max_actions)[1]
+
+
+def _parse_prefix(text: str, workspace: encoding.Box, max_actions: int) -> list[KeyAction] | ParseError:
+    kept, stop = _valid_prefix(text, max_actions)
+    if kept:
+        return [encoding.ints_to_action(g, workspace) for g in kept]
+    return ParseError(f"the first {stop}") if stop else _no_group(text)
+
+
+def _valid_prefix(text: str, max_actions: int) -> tuple[list[list[int]], str | None]:
+    """The 7-integer in-range groups before the first invalid 7-item group, and why it is invalid."""
+    kept: list[list[int]] = []
+    for parts in _seven_item_groups(text):
+        if len(kept) >= max_actions:
+            break
+        if not all(_INT.match(p) for p in parts):
+            return kept, f"action [{', '.join(parts)}] is not 7 integers"
+        values = [int(p) for p in parts]
+        if not _in_range(values):
+            return kept, f"action {values} is out of range ({RANGES})"
+        kept.append(values)
+    return kept, None
+
+
+def _seven_item_groups(text: str):
+    """The items of every innermost [...] group that has exactly 7 comma-separated items, in order."""
+    for match in _INNERMOST.finditer(text):
+        parts = [p.strip() for p in match.group(1).split(",")]
+        if len(parts) == 7:
+            yield parts
+
+
+def _no_group(text: str) -> ParseError:
+    snippet = text.strip().replace("\n", " ")[:80]
+    return ParseError(f"no [x, y, z, roll, pitch, yaw, gripper] group of 7 integers in the reply: {snippet!r}")
 
 
 def _in_range(values: list[int]) -> bool:

@@ -31,6 +31,7 @@ DEFAULT_PLUGINS = {
     "dynamics_encoder": "xicm.plugins.encoders.dynamics",
     "dynamics_retriever": "xicm.plugins.retrievers.dynamics",
     "xicm_prompt": "xicm.plugins.prompts.xicm_prompt",
+    "xicm_paper_prompt": "xicm.plugins.prompts.xicm_paper",
     "transformers_local": "xicm.plugins.llms.transformers_local",
     "openai_compatible": "xicm.plugins.llms.openai_compatible",
     "nearest_demo": "xicm.plugins.llms.nearest_demo",

@@ -62,7 +62,7 @@ class Episodes:
         return run_episode(self.sim, self.policy, task, seed, episode, self.max_steps)
 
 
-def _agent(sim, pool, llm, detector=None, k=2, max_steps=25):
+def _agent(sim, pool, llm, detector=None, k=2, max_steps=25, **options):
     """XICMPolicy assembled by hand, for test LLMs and detectors that are not registered plugins."""
     reg = get_registry()
     policy = XICMPolicy(
@@ -73,6 +73,7 @@ def _agent(sim, pool, llm, detector=None, k=2, max_steps=25):
         pool=pool,
         workspace=sim.workspace,
         k=k,
+        **options,
     )
     return Episodes(sim, policy, max_steps)
 
@@ -170,3 +171,45 @@ def test_objects_not_detected_are_recorded_with_the_episode(sim, smoke_pool):
     blind = get_registry().create("detector", {"name": "noisy_oracle", "drop_prob": 1.0})
     r = _agent(sim, pool, ScriptedReply("[[1, 2, 3, 0, 36, 36, 1]]"), detector=blind, max_steps=1).run_episode("close_microwave", 0, 0)
     assert r.extra["not_detected"] == ["microwave", "microwave door", "microwave door handle"]
+
+
+class CountingRetriever:
+    """Wraps a retriever and keeps the query of every selection."""
+
+    def __init__(self, inner):
+        self.inner, self.queries = inner, []
+
+    def select(self, query, pool, k, rng):
+        self.queries.append(query)
+        return self.inner.select(query, pool, k, rng)
+
+
+HOVER_THEN_OUT = "[[40, 50, 40, 0, 36, 36, 1], [42, 50, 40, 0, 36, 36, 1], [140, 50, 40, 0, 36, 36, 1]]"
+
+
+def test_partial_replies_run_the_valid_actions_then_end_at_the_invalid_one(sim, smoke_pool):
+    _, pool = smoke_pool
+    r = _agent(sim, pool, ScriptedReply(HOVER_THEN_OUT), partial_replies=True).run_episode("close_microwave", 0, 0)
+    assert (r.steps, r.error_kind, len(r.responses)) == (2, "parse_error", 1)
+    assert r.error_message.startswith("after the valid actions of reply 1: action [140, 50, 40, 0, 36, 36, 1] is out of range")
+
+
+def test_by_default_one_invalid_action_rejects_the_whole_reply(sim, smoke_pool):
+    _, pool = smoke_pool
+    r = _agent(sim, pool, ScriptedReply(HOVER_THEN_OUT)).run_episode("close_microwave", 0, 0)
+    assert (r.steps, r.error_kind) == (0, "parse_error")
+
+
+@pytest.mark.parametrize("rerank, selections", [(False, 1), (True, 3)])
+def test_rerank_selects_demos_again_with_each_llm_call(sim, smoke_pool, rerank, selections):
+    _, pool = smoke_pool
+    llm = Recording(ScriptedReply("[[40, 50, 40, 0, 36, 36, 1]]"))
+    episodes = _agent(sim, pool, llm, k=1, max_steps=3, rerank=rerank)
+    episodes.policy.retriever = CountingRetriever(episodes.policy.retriever)
+    r = episodes.run_episode("close_microwave", 0, 0)
+    assert len(llm.prompts) == 3 and len(episodes.policy.retriever.queries) == selections
+    assert r.retrieved == [d.demo_id for d in llm.prompts[0].demos]
+    if rerank:
+        assert r.extra["retrieved_per_call"] == [[d.demo_id for d in p.demos] for p in llm.prompts]
+    else:
+        assert "retrieved_per_call" not in r.extra

@@ -125,3 +125,13 @@ def test_nearest_demo_is_never_served_from_the_message_keyed_cache(tmp_path):
     from xicm.plugins.llms.nearest_demo import NearestDemoLLM
 
     assert CachedLLM(NearestDemoLLM(), tmp_path / "c.sqlite").enabled is False
+
+
+def test_works_on_the_xicm_paper_prompt_from_its_demos_and_query():
+    from xicm.plugins.prompts.xicm_paper import XicmPaperPromptBuilder
+
+    d = demo({"red jar": (0.10, 0.00, 0.80)}, [act(0.12, 0.01, 0.95), act(0.12, 0.01, 0.85, grip=False)])
+    query = Query(task="close_microwave", instruction="close microwave", objects={"microwave": (0.25, 0.20, 0.80)})
+    built = XicmPaperPromptBuilder().build([d], query, WS)
+    assert NearestDemoLLM().complete(built) == NearestDemoLLM().complete(prompt([d], {"microwave": (0.25, 0.20, 0.80)}))
+    assert NearestDemoLLM().complete(built) == format_actions(reanchor(d, query), WS)

@@ -19,9 +19,19 @@ class XicmPolicyOptions:
     max_llm_calls: Optional[int] = field(default=MISSING, metadata=at_least(1))  # null: only max_steps limits
     pool: str = MISSING
     pool_tasks: List[str] = MISSING
+    rerank: bool = False  # re-select the demos with the current observation on each LLM call (X-ICM does)
+    partial_replies: bool = False  # run a reply's valid actions up to its first invalid one, then end (X-ICM does)
 
 
-def create_xicm_policy(k: int, max_llm_calls: int | None, pool: str, pool_tasks: list[str], context: PolicyContext):
+def create_xicm_policy(
+    k: int,
+    max_llm_calls: int | None,
+    pool: str,
+    pool_tasks: list[str],
+    context: PolicyContext,
+    rerank: bool = False,
+    partial_replies: bool = False,
+):
     from . import parts
     from .policy import XICMPolicy
 
@@ -39,6 +49,8 @@ def create_xicm_policy(k: int, max_llm_calls: int | None, pool: str, pool_tasks:
         k=int(k),
         max_llm_calls=max_llm_calls,
         pool_path=str(pool),
+        rerank=bool(rerank),
+        partial_replies=bool(partial_replies),
     )
 
 

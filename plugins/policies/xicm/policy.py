@@ -29,6 +29,8 @@ class XICMPolicy(Policy):
     k: int = 18
     max_llm_calls: int | None = None
     pool_path: str | None = None  # where the pool came from (for run.json)
+    rerank: bool = False  # re-select demos on every LLM call, not only the first
+    partial_replies: bool = False  # keep a reply's actions before its first invalid one
 
     def __post_init__(self) -> None:
         self._start("", np.random.default_rng(0))
@@ -40,11 +42,14 @@ class XICMPolicy(Policy):
         self.task, self.rng = task, rng
         self.demos: list[Demo] | None = None
         self.llm_calls = 0
+        self._cut_reply: str | None = None  # why the last reply was cut short (partial_replies)
         self._record: dict = {"retrieved": [], "prompt_hash": None, "responses": [], "extra": {}}
         self._calls: list[dict] = []  # every prompt and reply: the episode's transcript file
         self._timings: dict[str, float] = {}
 
     def act(self, obs: Observation) -> list[KeyAction]:
+        if self._cut_reply is not None:  # X-ICM's episode ends at the reply's first invalid action
+            raise EpisodeFailure("parse_error", f"after the valid actions of reply {self.llm_calls}: {self._cut_reply}")
         if self.max_llm_calls is not None and self.llm_calls >= self.max_llm_calls:
             raise EpisodeFailure("max_llm_calls", f"no success after {self.llm_calls} LLM calls")
         with self._stage("detect", "detector_error"):
@@ -55,11 +60,15 @@ class XICMPolicy(Policy):
         if missing:
             seen = self._record["extra"].setdefault("not_detected", [])
             seen.extend(n for n in missing if n not in seen)
-        if self.demos is None:  # demos are chosen once, from the first observation
+        if self.demos is None or self.rerank:  # by default chosen once, from the first observation
             with self._stage("retrieve", "retrieval_error"):
                 chosen = self.retriever.select(query, self.pool, self.k, self.rng)
             self.demos = [d for d, _ in chosen]
-            self._record["retrieved"] = [d.demo_id for d in self.demos]
+            ids = [d.demo_id for d in self.demos]
+            if not self._record["retrieved"]:
+                self._record["retrieved"] = ids
+            if self.rerank:
+                self._record["extra"].setdefault("retrieved_per_call", []).append(ids)
         with self._stage("prompt", "internal_error"):
             prompt = self.prompt_builder.build(self.demos, query, self.workspace)
         if self._record["prompt_hash"] is None:
@@ -72,9 +81,11 @@ class XICMPolicy(Policy):
         self.llm_calls += 1
         self._record["responses"].append(reply)
         with self._stage("parse", "parse_error"):
-            actions = parsing.parse_actions(reply, self.workspace)
+            actions = parsing.parse_actions(reply, self.workspace, partial=self.partial_replies)
         if isinstance(actions, parsing.ParseError):
             raise EpisodeFailure(actions.kind, actions.reason)
+        if self.partial_replies:
+            self._cut_reply = parsing.partial_stop(reply)
         return actions
 
     def run_metadata(self) -> dict:

@@ -1,0 +1,74 @@
+"""Prompt builder "xicm_paper": the prompt layout of X-ICM's released code.
+
+One user message on a single line: every demonstration, best first, as `obs>actions, ` and then
+the query as `obs>`, where
+
+    obs     = ['instruction': {instruction}, {'label': [x, y, z], ...}]
+    actions = [[x, y, z, roll, pitch, yaw, open], ...]
+
+The object dict is Python's own text of a dict of voxel lists, as X-ICM prints it; its objects are
+the ones X-ICM hand-picks per task (xicm_paper_objects.PAPER_OBJECTS), under X-ICM's labels.
+Objects the detector did not find are left out, as X-ICM leaves out objects no camera sees. The
+system message says what X-ICM's says, in our words. Integers come from xicm.core.encoding.
+
+Options:
+    system_prompt: replaces the default system message (a string; may be empty to send none).
+    objects: paper (X-ICM's per-task objects) | all (every object of the task, under our names).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+from xicm.core import encoding
+from xicm.core.hookspecs import hookimpl
+from xicm.core.interfaces import Box, PromptBuilder
+from xicm.core.schema import one_of
+from xicm.core.types import Demo, Prompt, Query
+
+from .xicm_paper_objects import paper_objects
+
+SYSTEM_PROMPT = (
+    "You are controlling a Franka Panda arm fitted with a parallel gripper. "
+    "First come demonstrations of tasks you already know, each written as "
+    "[task_instruction, observation]>[ 7-dim action_1, 7-dim action_2, ..., 7-dim action_N ]. "
+    "Last comes the instruction of a task you have not seen, with a new observation. "
+    "Reply with a list of 7-dim actions for it that follows the trends of the demonstrations, "
+    "and with nothing else."
+)
+
+
+def observation_text(task: str, instruction: str, objects: dict, workspace: Box, which: str) -> str:
+    """"['instruction': {instruction}, {'label': [x, y, z], ...}]" (no quotes around the instruction)."""
+    shown = paper_objects(task, objects) if which == "paper" else dict(objects)
+    voxels = {label: list(encoding.position_to_voxel(xyz, workspace)) for label, xyz in shown.items()}
+    return f"['instruction': {instruction.strip()}, {voxels!r}]"
+
+
+@dataclass
+class XicmPaperPromptOptions:
+    system_prompt: Optional[str] = None  # None: SYSTEM_PROMPT; "" sends no system message
+    objects: str = field(default="paper", metadata=one_of("paper", "all"))
+
+
+class XicmPaperPromptBuilder(PromptBuilder):
+    def __init__(self, system_prompt: str | None = None, objects: str = "paper"):
+        self.system_prompt = SYSTEM_PROMPT if system_prompt is None else str(system_prompt)
+        self.objects = objects
+
+    def build(self, demos: list[Demo], query: Query, workspace: Box) -> Prompt:
+        text = "".join(
+            f"{observation_text(d.task, d.instruction, d.objects, workspace, self.objects)}>"
+            f"{encoding.format_actions(d.key_actions, workspace)}, "
+            for d in demos
+        )
+        text += observation_text(query.task, query.instruction, query.objects, workspace, self.objects) + ">"
+        messages = [{"role": "system", "content": self.system_prompt}] if self.system_prompt else []
+        messages.append({"role": "user", "content": text})
+        return Prompt(messages=messages, demos=list(demos), query=query, workspace=workspace)
+
+
+@hookimpl
+def register_prompt_builders(register):
+    register("xicm_paper", XicmPaperPromptBuilder, options=XicmPaperPromptOptions)
