@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from hydra import compose, initialize_config_module
 
-from xicm.core.errors import ConfigError, XicmError
+from xicm.core.errors import XicmError
 from xicm.core.run_dir import config_fingerprint
 from xicm.core.ray_shards import RayEpisodeShards, ShardSettings, shard_settings
 

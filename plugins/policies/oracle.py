@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from xicm.core.errors import EpisodeFailure
 from xicm.core.hookspecs import hookimpl
-from xicm.core.interfaces import Policy, PolicyContext, Simulator
+from xicm.core.interfaces import Policy, Simulator
 
 
 class OraclePolicy(Policy):
