@@ -22,7 +22,7 @@ from xicm.core.types import (
 from . import control_modes
 from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
-from .options import CONTROL_MODES, frames_per_step
+from .options import CONTROL_MODES, frames_per_step, sizes_per_camera
 from .objects import ObjectSet
 from .scene import TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
@@ -32,7 +32,8 @@ class SapienSimulator(Simulator):
     """AGNOSTOS-style tabletop scenes with a Franka Panda, rendered headless through Vulkan.
 
     Options:
-        image_size: camera resolution (int for square, or [height, width]).
+        image_size: camera resolution: an int (square), [height, width], or camera -> either
+            (cameras it leaves out get 128).
         cameras: names of the cameras to render (front, left_shoulder, right_shoulder, overhead, wrist).
         physics_hz: physics steps per second of simulated time.
         frame_hz: frames per second: key moves are followed, recorded and watched by the task
@@ -42,6 +43,7 @@ class SapienSimulator(Simulator):
             (layouts in control_modes.py).
         sample_variations: pick a random variation per episode for tasks that have several
             (False: always variation 0, what the unseen tasks are evaluated on).
+        depth, segmentation: read those pictures too (False: CameraFrame.depth / .segmentation are None).
         render: False builds a physics-only simulator (observe() is then unavailable).
         lin_speed, joint_speed: TCP (m/s) and joint (rad/s) speed limits of a move.
         tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
@@ -60,15 +62,22 @@ class SapienSimulator(Simulator):
         control_mode: str = "ee_delta",
         sample_variations: bool = True,
         render: bool = True,
+        depth: bool = True,
+        segmentation: bool = True,
         lin_speed: float = 0.35,
         joint_speed: float = 1.3,
         *,
         tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
-        if not isinstance(image_size, int):  # [height, width] (a list, tuple or OmegaConf ListConfig)
-            image_size = tuple(int(v) for v in image_size)
         cameras = tuple(str(c) for c in cameras)
-        self.world = World(physics_hz=float(physics_hz), image_size=image_size, cameras=cameras, render=bool(render))
+        self.world = World(
+            physics_hz=float(physics_hz),
+            image_size=sizes_per_camera(image_size, cameras),
+            cameras=cameras,
+            render=bool(render),
+            depth=bool(depth),
+            segmentation=bool(segmentation),
+        )
         self.robot = self.world.robot
         self.objects = ObjectSet(self.world.scene)
         self.controller = Controller(
@@ -125,6 +134,10 @@ class SapienSimulator(Simulator):
     def _require_task(self) -> None:
         if self.task is None:
             raise RuntimeError("call reset(task, seed, episode) first")
+
+    def image_sizes(self) -> dict[str, tuple[int, int]]:
+        """(height, width) of each camera."""
+        return dict(self.world.cameras.sizes) if self.world.cameras is not None else {}
 
     def object_names(self) -> list[str]:
         self._require_task()
