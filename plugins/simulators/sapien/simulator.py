@@ -24,6 +24,7 @@ from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
 from .options import CONTROL_MODES, frames_per_step, sizes_per_camera
 from .objects import ObjectSet
+from .robot import ARM_JOINTS
 from .scene import TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
 
@@ -269,8 +270,7 @@ class SapienSimulator(Simulator):
             except ValueError as exc:
                 return None, str(exc)
             world = self.robot.base_pose * sapien.Pose(pose[:3], pose[3:])
-            # seeded from the commanded joints: the measured ones lag them while moving
-            q = self.robot.ik(world, self.controller._hold_q)
+            q = self._ik_near(world, self.controller._hold_q)
             if q is None:
                 xyz = np.round(pose[:3], 3).tolist()
                 return None, f"no joint configuration within the Panda's limits puts the gripper at {xyz} (base frame)"
@@ -280,6 +280,25 @@ class SapienSimulator(Simulator):
             bad = [int(j) + 1 for j in np.nonzero(outside)[0]]
             return None, f"the {mode} action's joint target lies outside the Panda's limits at joint(s) {bad}"
         return q, None
+
+    def _ik_near(self, world: sapien.Pose, hold: np.ndarray) -> np.ndarray | None:
+        """IK seeded from the commanded joints (the measured ones lag them while moving). The
+        solver knows no joint limits: a solution past one is solved again with that joint held
+        at the limit (the arm has a joint to spare), else from a seed pulled inside the limits."""
+        robot = self.robot
+        lo, hi = robot.qlimits[:, 0], robot.qlimits[:, 1]
+        mask = np.ones(ARM_JOINTS, dtype=np.int32)
+        seed = hold.copy()
+        for _ in range(3):
+            q, ok = robot.ik_masked(world, seed, mask)
+            if not ok:
+                break
+            past = ((q < lo - 1e-3) | (q > hi + 1e-3)) & (mask == 1)
+            if not past.any():
+                return np.clip(q, lo, hi)
+            mask[past] = 0  # hold these joints at their limits and solve with the others
+            seed = np.where(past, np.clip(q, lo, hi), seed)
+        return robot.ik(world, np.clip(hold, lo + 0.2, hi - 0.2))
 
     def record_scripted(self, cameras=None) -> ControlRecording:
         """Run the scripted solution from the reset state, recording at the control rate: the
