@@ -21,7 +21,10 @@ from xicm.core.schema import check_config, check_overrides
 CONF = Path(__file__).resolve().parents[1] / "conf"
 PLUGIN_GROUPS = ["simulator", "detector", "encoder", "retriever", "prompt", "llm", "policy"]
 SEEDS = "a non-empty list of distinct integers from 0 to 4294967295, e.g. [0,1,2]"
-IMAGE_SIZE = "an integer from 1 to 4096, or [height, width] of two such integers"
+IMAGE_SIZE = (
+    "an integer from 1 to 4096, or [height, width] of two such integers, or a mapping from camera names "
+    "(front, left_shoulder, right_shoulder, overhead, wrist) to either"
+)
 TOP_KEYS = [f.name for f in dataclasses.fields(XicmConfig)]
 
 
@@ -161,6 +164,8 @@ def test_a_key_the_config_does_not_have_is_one_sentence(override, sentence):
          "simulator.cameras must be a non-empty list of distinct names from front, left_shoulder, right_shoulder, "
          "overhead, wrist, not ['nope']"),
         (["+simulator.physics_hz=0"], "simulator.physics_hz must be a number > 0, not 0"),
+        (["+simulator.image_size={front: 5000}"], f"simulator.image_size must be {IMAGE_SIZE}, not {{\"front\": 5000}}"),
+        (["+simulator.control_hz=15"], "simulator.frame_hz (20) must be a whole multiple of simulator.control_hz (15), e.g. frame_hz 20 with control_hz 10, 20 or 5"),
     ],
 )
 def test_the_simulator_and_the_policy_options_are_checked_before_anything_is_built(overrides, sentence):
