@@ -44,14 +44,22 @@ def check_export(cfg: DictConfig) -> tuple[list[str], dict]:
     registry = get_registry()
     options = simulator_options(cfg)
     try:
-        registry.check_options("simulator", options)
+        simulator = registry.check_options("simulator", options)
     except ConfigError as exc:  # export.cameras travel as simulator.cameras: name the key the user set
         raise ConfigError(str(exc).replace("simulator.cameras", "export.cameras")) from None
+    if simulator.extra.get("check") is not None:  # rules between options (rates that must divide)
+        simulator.extra["check"](options)
+    if simulator.extra.get("options") is not None:  # the options left out of the YAML take their defaults
+        defaults = OmegaConf.structured(simulator.extra["options"])
+        options = {"name": options["name"], **OmegaConf.to_container(OmegaConf.merge(defaults, {
+            k: v for k, v in options.items() if k != "name"}))}
+    if "control_mode" not in options or options["control_mode"] not in ACTION_SPACES:
+        raise ConfigError(
+            f"simulator '{cfg.simulator.name}' has no per-step control_mode for the dataset's action "
+            f"(one of {', '.join(ACTION_SPACES)}); xicm-export needs simulator=sapien"
+        )
     tasks = export_tasks(cfg)
     build.check_tasks(registry, tasks, cfg.simulator.name)
-    space = options.get("control_mode", "ee_delta")
-    if space not in ACTION_SPACES:
-        raise ConfigError(f"simulator.control_mode must be one of {', '.join(ACTION_SPACES)}, not {space!r}")
     return tasks, options
 
 
@@ -63,8 +71,8 @@ def run_export(cfg: DictConfig) -> dict:
     tasks, options = check_export(cfg)
     ex = cfg.export
     out_dir = Path(ex.out_dir)
-    height, width = image_shape(options.get("image_size", 128))
-    fps = float(options.get("control_hz", 10))
+    height, width = image_shape(options["image_size"])
+    fps = float(options["control_hz"])
     if fps != int(fps):
         raise ConfigError(f"simulator.control_hz must be a whole number of steps per second for a LeRobot dataset (fps), not {fps}")
     cameras = list(ex.cameras)
@@ -86,7 +94,7 @@ def run_export(cfg: DictConfig) -> dict:
     start = time.perf_counter()
     write_dataset(
         out_dir, episodes, repo_id=str(ex.repo_id), fps=int(fps), cameras=cameras, height=height, width=width,
-        action_space=str(options.get("control_mode", "ee_delta")), use_videos=bool(ex.use_videos),
+        action_space=str(options["control_mode"]), use_videos=bool(ex.use_videos),
         vcodec=str(ex.vcodec), cache=cfg.paths.cache,
     )
     written = time.perf_counter() - start

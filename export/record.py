@@ -23,7 +23,7 @@ class NoDemo(Exception):
 def record_episode(simulator: Simulator, task: str, seed: int, episode: int, cameras: list[str]) -> StagedEpisode:
     from xicm.plugins.simulators.sapien.control_modes import actions
 
-    obs = simulator.reset(task, seed, episode)
+    simulator.reset(task, seed, episode)
     recording = simulator.record_scripted(cameras=list(cameras))
     if not recording.success:
         raise NoDemo("the scripted demonstration did not succeed")
@@ -41,7 +41,7 @@ def record_episode(simulator: Simulator, task: str, seed: int, episode: int, cam
         axis=1,
     )
     arrays.update(key_action_columns(recording.key_action_steps, recording.key_actions, steps, simulator.workspace))
-    return StagedEpisode(task, int(seed), int(episode), obs.instruction, arrays)
+    return StagedEpisode(task, int(seed), int(episode), recording.instruction, arrays)
 
 
 def key_action_columns(key_steps, key_actions, steps: int, workspace) -> dict[str, np.ndarray]:
