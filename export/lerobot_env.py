@@ -4,18 +4,28 @@ lerobot 0.4.4 pins torch<2.11 and huggingface-hub<0.36, while xicm runs torch 2.
 transformers 5. So the LeRobot writer and reader (lerobot_writer.py, lerobot_reader.py) run
 as plain scripts under a separate venv's interpreter, built once per requirement list:
 
-    <cache>/envs/lerobot-<version>-<hash of REQUIREMENTS and the python version>/
+    <cache>/envs/lerobot-<version>-<hash of the requirement list and the python version>/
 
-torch goes in first (pip finds the CPU wheel through the machine's pip config), then
-lerobot without its declared dependencies, then the runtime needs with a constraint file
-that pins torch/torchvision, so nothing can pull a CUDA torch. The env is built in a temp
-folder beside and renamed into place (a half-built env is never used), under a file lock
-(two processes never build it at once), and reused afterwards.
+Measured here: the only CPU torch wheel on this machine (2.13.0+cpu) has no matching CPU
+torchvision anywhere reachable (PyPI's torchvision 0.28.0 links libtorch_cuda.so and fails to
+import on the CPU torch: "operator torchvision::nms does not exist"; download.pytorch.org is
+unreachable), and lerobot's dataset code imports torchvision. So the env holds the torch,
+torchvision and torchcodec that lerobot 0.4.4 itself declares (PyPI's standard builds, which
+run on CPU), pinned by a constraint file so no later install moves them. lerobot goes in
+with --no-deps (its robot/teleop/training extras are not needed to write or read datasets),
+then the runtime needs of its datasets modules.
+
+The env is built in a temp folder beside and renamed into place (a half-built env is never
+used), under a file lock (two processes never build it at once), and reused afterwards.
+Video decoding (torchcodec) needs FFmpeg's shared libraries (Debian: `apt-get install ffmpeg`);
+torchvision has no VideoReader any more, so lerobot's "pyav" decoding path cannot replace it.
+Writing needs no system FFmpeg (PyAV's wheel carries its own).
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes.util
 import fcntl
 import hashlib
 import os
@@ -29,15 +39,13 @@ from xicm.core.errors import XicmError
 
 LEROBOT_VERSION = "0.4.4"
 PYTHON = "python3.11"  # lerobot 0.4.4 needs Python >= 3.10; this machine's and CI's 3.11
-TORCH = "torch==2.13.0"  # the CPU wheel on this machine's disk (pip config find-links)
-#: pins that keep the CPU torch: torchvision 0.28.0 is the release built for torch 2.13.0
-CONSTRAINTS = [TORCH, "torchvision==0.28.0"]
-#: lerobot's runtime needs for LeRobotDataset (measured: what its datasets modules import),
-#: inside lerobot 0.4.4's own bounds; torchcodec decodes the videos (needs FFmpeg's shared
-#: libraries, Debian's `ffmpeg`: torchvision 0.28 has no VideoReader for lerobot's "pyav" path).
+#: lerobot 0.4.4's own bounds: torch<2.11, torchvision<0.26, torchcodec<0.11 (matching releases)
+CONSTRAINTS = ["torch==2.10.0", "torchvision==0.25.0", "torchcodec==0.10.0"]
+TORCH = CONSTRAINTS[0]
+#: what lerobot.datasets imports at runtime (measured), inside lerobot 0.4.4's declared bounds
 REQUIREMENTS = [
     f"lerobot=={LEROBOT_VERSION}",
-    "torchvision==0.28.0",
+    *CONSTRAINTS[1:],
     "datasets>=4.0.0,<5.0.0",
     "huggingface-hub>=0.34.2,<0.36.0",
     "av>=15.0.0,<16.0.0",
@@ -50,7 +58,6 @@ REQUIREMENTS = [
     "gymnasium>=1.1.1,<2.0.0",
     "packaging>=24.2,<26.0",
     "imageio>=2.34.0,<3.0.0",
-    "torchcodec==0.13.0",
 ]
 READY = "xicm-env-ready"  # written last inside the env: its presence means the build finished
 
@@ -116,11 +123,10 @@ def _build(final: Path, log) -> None:
     log(f"lerobot environment ready ({time.perf_counter() - start:.0f} s); build log: {build_log}")
 
 
-#: run inside the fresh env: the torch it kept is the CPU build, and lerobot's dataset class imports
+#: run inside the fresh env: the torch it kept is the pinned one, and lerobot's dataset class imports
 _CHECK = (
     "import torch, torchvision; from lerobot.datasets.lerobot_dataset import LeRobotDataset; "
-    f"assert torch.__version__.startswith('{TORCH.split('==')[1]}') and not torch.cuda.is_available() "
-    "and torch.version.cuda is None, torch.__version__"
+    f"assert torch.__version__.split('+')[0] == '{TORCH.split('==')[1]}', torch.__version__"
 )
 
 
@@ -134,6 +140,15 @@ def _run(cmd: list[str], build_log: Path, env: dict | None = None) -> None:
         raise XicmError(
             f"building the lerobot environment failed at `{' '.join(cmd[-3:])}` ({tail[0].strip()}); "
             f"full output in {build_log}"
+        )
+
+
+def check_ffmpeg() -> None:
+    """Decoding the dataset's videos (torchcodec) loads FFmpeg's shared libraries from the system."""
+    if ctypes.util.find_library("avcodec") is None:
+        raise XicmError(
+            "reading the dataset's videos needs FFmpeg's shared libraries, which this machine lacks "
+            "(Debian/Ubuntu: apt-get install ffmpeg; scripts/setup.sh installs it)"
         )
 
 
