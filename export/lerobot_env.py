@@ -58,6 +58,7 @@ REQUIREMENTS = [
     "gymnasium>=1.1.1,<2.0.0",
     "packaging>=24.2,<26.0",
     "imageio>=2.34.0,<3.0.0",
+    "accelerate>=1.10.0,<2.0.0",  # lerobot.utils.utils imports it (measured: the import fails without)
 ]
 READY = "xicm-env-ready"  # written last inside the env: its presence means the build finished
 
