@@ -8,7 +8,9 @@ For each size, runs the real export (record at the control rate with rendering, 
 lerobot's writer in its env) of `demos-per-task` demos of every task into a fresh folder, and
 prints recording and writing rates and dataset bytes per demo. The extrapolation multiplies
 the per-task means by demos per task for the 18 seen tasks (10: xicm-export's default; 200:
-the AGNOSTOS pool size). The lerobot env must exist or is built first (not timed).
+the AGNOSTOS pool size). The lerobot env must exist or is built first (not timed). With
+--replay, the dataset is loaded back with LeRobotDataset and every episode's actions are
+replayed through step() in each action space: the success rate per space.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 2)
     ap.add_argument("--cameras", nargs="+", default=["front", "wrist"])
     ap.add_argument("--tasks", nargs="*", default=None, help="default: the 18 seen tasks")
+    ap.add_argument("--replay", action="store_true", help="also replay the loaded actions in every action space")
     args = ap.parse_args()
 
     from hydra import compose, initialize_config_module
@@ -53,7 +56,7 @@ def main() -> None:
             start = time.perf_counter()
             report = run_export(cfg)
             total = time.perf_counter() - start
-            staged = sorted(out.with_name("ds.staging").glob("episodes/*/s*/e*.npz"))
+            staged = report["staged"]  # in the dataset's episode order
             frames = sum(len(np.load(p)["action.ee_delta"]) for p in staged)
             demos = report["episodes"]
             per_task = {}
@@ -73,6 +76,28 @@ def main() -> None:
             for n in (10, 200):
                 print(f"seen set, 18 tasks x {n} demos: ~{18 * n * seconds_per_demo / 3600:.1f} h, "
                       f"~{18 * n * mb_per_demo / 1e3:.2f} GB (dataset), ~{18 * n * staging_mb / demos / 1e3:.2f} GB (staging)")
+            if args.replay:
+                replay(cfg, out, staged, Path(tmp) / "loaded.npz")
+
+
+def replay(cfg, out: Path, staged: list[Path], loaded: Path) -> None:
+    """Replay the actions LeRobotDataset loads, per action space, from each episode's reset."""
+    from xicm.core.plugins import get_registry
+    from xicm.export.dataset_writer import read_dataset
+    from xicm.export.features import ACTION_SPACES
+
+    read_dataset(out, cfg.export.repo_id, loaded, cfg.paths.cache)
+    data = np.load(loaded)
+    episode_of = data["column.episode_index"].reshape(-1)
+    for space in ACTION_SPACES:
+        sim = get_registry().create_simulator({"name": "sapien", "render": False, "control_mode": space})
+        ok = 0
+        for n, path in enumerate(staged):
+            sim.reset_state(path.parent.parent.name, int(cfg.export.seed), int(path.stem[1:]))
+            outcomes = [sim.step(a) for a in data[f"column.action.{space}"][episode_of == n]]
+            ok += any(o.success for o in outcomes)
+        sim.close()
+        print(f"replay {space}: {ok}/{len(staged)} succeed ({100 * ok / len(staged):.1f} %)")
 
 
 if __name__ == "__main__":

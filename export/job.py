@@ -104,7 +104,8 @@ def run_export(cfg: DictConfig) -> dict:
     print("| task | demos | attempts | scripted success % |\n|---|---:|---:|---:|")
     for task, (ok, attempts) in counts.items():
         print(f"| {task} | {ok} | {attempts} | {100.0 * ok / max(attempts, 1):.1f} |")
-    return {"counts": counts, "episodes": len(episodes), "bytes": size, "record_s": recorded, "write_s": written}
+    return {"counts": counts, "episodes": len(episodes), "staged": episodes, "bytes": size, "record_s": recorded,
+            "write_s": written}
 
 
 def record_all(walk: EpisodeWalk, staging: Staging, options: dict, cameras, seed: int, workers: int, progress: bool):
