@@ -8,7 +8,7 @@ from pathlib import Path
 
 from xicm.core.atomic import write_dir_atomic, write_json_atomic
 from xicm.export import features as feats
-from xicm.export.lerobot_env import env_python, run_script
+from xicm.export.lerobot_env import check_ffmpeg, env_python, run_script
 
 ROBOT_TYPE = "franka_panda"
 
@@ -57,6 +57,7 @@ def write_dataset(
 
 def read_dataset(root: Path, repo_id: str, out_npz: Path, cache: str | Path, log=print) -> None:
     """Load the dataset with lerobot's own LeRobotDataset (lerobot_reader.py) and dump it to `out_npz`."""
+    check_ffmpeg()
     run_script(env_python(cache, log), "lerobot_reader.py", str(root), repo_id, str(out_npz))
 
 

@@ -31,7 +31,6 @@ import hashlib
 import os
 import shutil
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -156,7 +155,7 @@ def check_ffmpeg() -> None:
 def run_script(python: Path, script: str, *args: str) -> None:
     """Run one of this package's env-side scripts (lerobot_writer.py, ...) with the env's interpreter."""
     path = Path(__file__).with_name(script)
-    done = subprocess.run([str(python), str(path), *args], stdout=sys.stdout, stderr=subprocess.PIPE, text=True)
+    done = subprocess.run([str(python), str(path), *args], stderr=subprocess.PIPE, text=True)
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["(no output)"])[-1]
         raise XicmError(f"{script} failed in the lerobot environment: {last}")

@@ -2,7 +2,6 @@
 seen tasks written and loaded by lerobot's own LeRobotDataset (in its isolated env), whose
 loaded actions replay to success in every action space; a partial export resumes."""
 
-import os
 from pathlib import Path
 
 import numpy as np
