@@ -77,7 +77,13 @@ class Run:
 
 
 def create_simulator(cfg: DictConfig, registry: Registry) -> Simulator:
-    return registry.create_simulator(group_options(cfg, "simulator"))
+    """The run's simulator; benchmark.variations (zero | sampled), when set, decides whether
+    episodes use variation 0 or one sampled from (seed, task, episode)."""
+    simulator = registry.create_simulator(group_options(cfg, "simulator"))
+    variations = OmegaConf.select(cfg, "benchmark.variations")
+    if variations is not None:
+        simulator.sample_variations = variations == "sampled"
+    return simulator
 
 
 def build_run(cfg: DictConfig, registry: Registry | None = None, *, with_policy: bool = True) -> Run:

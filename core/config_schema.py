@@ -101,6 +101,9 @@ class Benchmark:
     tasks: List[str] = field(default=MISSING, metadata=rule(_names, "a non-empty list of distinct task names"))
     pool: str = MISSING
     pool_tasks: List[str] = MISSING
+    #: zero: every episode on variation 0; sampled: a variation per episode from its seed (as in
+    #: collection); null: the simulator's own setting (sapien: sample_variations, default true)
+    variations: Optional[str] = field(default=None, metadata=one_of("zero", "sampled"))
 
 
 @dataclass
@@ -117,6 +120,7 @@ class XicmConfig:
     )
     episodes: int = field(default=MISSING, metadata=at_least(1))
     max_steps: int = field(default=MISSING, metadata=at_least(1))
+    max_control_steps: Optional[int] = field(default=None, metadata=at_least(1))
     paths: Paths = field(default_factory=Paths)
     pool_path: str = MISSING
     collect: Collect = field(default_factory=Collect)

@@ -1,7 +1,12 @@
 """One evaluation episode of any policy: the single path every policy is evaluated through.
 
     obs = simulator.reset(task, seed, episode); policy.reset(task, obs, rng)
-    until success or max_steps key actions: execute policy.act(obs) one by one, then observe
+    until success or a budget is spent: carry out policy.act(obs) one by one, then observe
+
+A key action (KeyAction / JointAction) is `simulator.execute`d and counts against max_steps; a
+ControlStep (per-step policies: one, or a chunk of several) is `simulator.step`ped and counts
+against max_control_steps (None: the task's default, TaskInfo.max_control_steps).
+EpisodeResult.steps counts both.
 
 A failed episode never raises: its kind and one-sentence reason go into the EpisodeResult.
 """
@@ -16,7 +21,7 @@ from xicm.core.errors import EpisodeFailure, LLMError
 from xicm.core.interfaces import Policy, Simulator
 from xicm.core.seeding import episode_rng
 from xicm.core.transcripts import write_transcript
-from xicm.core.types import EpisodeResult
+from xicm.core.types import ControlStep, EpisodeResult
 from xicm.core.video import EpisodeVideo, VideoSettings
 
 
@@ -27,6 +32,7 @@ def run_episode(
     seed: int,
     episode: int,
     max_steps: int = 25,
+    max_control_steps: int | None = None,
     video: VideoSettings | None = None,
     transcripts_dir: Path | None = None,
 ) -> EpisodeResult:
@@ -37,7 +43,8 @@ def run_episode(
     start = time.perf_counter()
     recorder = None if video is None else EpisodeVideo(video, task, seed, episode)
     try:
-        _loop(simulator, policy, result, int(max_steps), timings, recorder)
+        budgets = Budgets(int(max_steps), max_control_steps, simulator, task)
+        _loop(simulator, policy, result, budgets, timings, recorder)
     except EpisodeFailure as failure:
         result.error_kind, result.error_message = failure.kind, failure.message
     except LLMError as exc:
@@ -56,8 +63,9 @@ def run_episode(
     if recorder is not None:  # never raises: a video problem is only noted in extra
         result.extra = {**result.extra, **recorder.finish(result.success)}
         timings["video"] = recorder.seconds
-        if "execute" in timings:  # pictures taken during a move count as video, not execute
-            timings["execute"] -= recorder.seconds_in_callbacks
+        moved = "execute" if "execute" in timings else "step"
+        if moved in timings:  # pictures taken during a move count as video, not execute / step
+            timings[moved] -= recorder.seconds_in_callbacks
     if transcripts_dir is not None and record.get("transcript"):
         result.extra = {**result.extra, **write_transcript(transcripts_dir, task, seed, episode, record["transcript"])}
     result.timings = {k: round(v, 4) for k, v in timings.items()}
@@ -65,8 +73,46 @@ def run_episode(
     return result
 
 
+class Budgets:
+    """Key actions against max_steps, control steps against max_control_steps."""
+
+    def __init__(self, max_steps: int, max_control_steps: int | None, simulator: Simulator, task: str):
+        self.max_steps, self.simulator, self.task = max_steps, simulator, task
+        self._max_control = None if max_control_steps is None else int(max_control_steps)
+        self.keys = self.controls = 0
+
+    @property
+    def max_control_steps(self) -> int:
+        if self._max_control is None:  # looked up only when a per-step policy asks
+            self._max_control = self.simulator.task_info(self.task).max_control_steps
+            if self._max_control is None:
+                raise EpisodeFailure(
+                    "max_control_steps", f"task {self.task} declares no max_control_steps: set max_control_steps in the config"
+                )
+        return self._max_control
+
+    def left(self) -> bool:
+        return self.keys < self.max_steps and (self.controls == 0 or self.controls < self.max_control_steps)
+
+    def spent(self, action) -> bool:
+        if isinstance(action, ControlStep):
+            return self.controls >= self.max_control_steps
+        return self.keys >= self.max_steps
+
+    def count(self, action) -> None:
+        if isinstance(action, ControlStep):
+            self.controls += 1
+        else:
+            self.keys += 1
+
+    def failure(self) -> EpisodeFailure:
+        if self.controls and self.controls >= self.max_control_steps:
+            return EpisodeFailure("max_control_steps", f"no success within {self.max_control_steps} control steps")
+        return EpisodeFailure("max_steps", f"no success within {self.max_steps} key actions")
+
+
 def _loop(
-    simulator: Simulator, policy: Policy, result: EpisodeResult, max_steps: int, timings: dict, video: EpisodeVideo | None
+    simulator: Simulator, policy: Policy, result: EpisodeResult, budgets: Budgets, timings: dict, video: EpisodeVideo | None
 ) -> None:
     def timed(stage: str, fn, *args):
         t0 = time.perf_counter()
@@ -82,14 +128,18 @@ def _loop(
     if video is not None:
         video.start(simulator, obs)
     policy.reset(result.task, obs, episode_rng(result.seed, result.task, result.episode, stream="policy"))
-    while result.steps < max_steps:
+    while budgets.left():
         actions = policy.act(obs)
         if not actions:
             raise EpisodeFailure("no_actions", "the policy returned no action")
         for action in actions:
-            if result.steps >= max_steps:
+            if budgets.spent(action):
                 break
-            outcome = timed("execute", simulator.execute, action)
+            if isinstance(action, ControlStep):
+                outcome = timed("step", simulator.step, action.values)
+            else:
+                outcome = timed("execute", simulator.execute, action)
+            budgets.count(action)
             result.steps += 1
             if video is not None:
                 video.action_done()
@@ -104,7 +154,7 @@ def _loop(
             obs = timed("observe", simulator.observe)
         except Exception as exc:
             raise EpisodeFailure("sim_error", f"observe failed: {type(exc).__name__}: {exc}") from exc
-    raise EpisodeFailure("max_steps", f"no success within {max_steps} key actions")
+    raise budgets.failure()
 
 
 def last_frame(exc: BaseException) -> str:

@@ -37,6 +37,8 @@ ERROR_KINDS = (
     "detector_error",  # the detector failed
     "retrieval_error",  # the retriever failed
     "max_steps",  # the step budget ran out without success
+    "max_control_steps",  # the control-step budget of a per-step policy ran out without success
+    "bad_action",  # a per-step action of the wrong shape or with NaN / infinite values
     "max_llm_calls",  # the LLM-call budget ran out without success
     "no_actions",  # the policy returned no action
     "solution_ended",  # the scripted solution (oracle policy) ran out without success

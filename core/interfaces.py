@@ -29,6 +29,9 @@ class Simulator(ABC):
 
     #: (low xyz, high xyz) of the box the 100^3 text grid covers, metres, world frame.
     workspace: Box
+    #: a task variation per episode sampled from (seed, task, episode), else variation 0
+    #: (benchmark.variations sets it; simulators with one variation per task ignore it)
+    sample_variations: bool = True
 
     @abstractmethod
     def task_names(self) -> list[str]:

@@ -43,8 +43,9 @@ class CameraFrame:
     """One camera's picture. Extrinsics use the OpenCV convention (x right, y down, z forward)."""
 
     rgb: np.ndarray  # (H, W, 3) uint8
-    depth: np.ndarray  # (H, W) float32 metres along the optical axis; 0 where nothing was hit
-    segmentation: np.ndarray  # (H, W) int32 actor ids, see Observation.segment_names
+    depth: np.ndarray | None  # (H, W) float32 metres along the optical axis; 0 where nothing was hit
+    segmentation: np.ndarray | None  # (H, W) int32 actor ids, see Observation.segment_names
+    # (None when the simulator was asked not to render them, e.g. sapien's depth=false)
     intrinsic: np.ndarray  # (3, 3)
     cam_to_world: np.ndarray  # (4, 4)
 

@@ -9,7 +9,7 @@ import sapien
 
 from xicm.core.types import CameraFrame
 
-from .options import CAMERA_NAMES
+from .options import CAMERA_NAMES, sizes_per_camera
 
 #: SAPIEN cameras look along their local +x with +z up; OpenCV looks along +z with +y down.
 _GL_TO_CV = np.diag([1.0, -1.0, -1.0, 1.0])
@@ -54,13 +54,19 @@ def look_at_pose(eye, target, up=(0.0, 0.0, 1.0)) -> sapien.Pose:
 class Cameras:
     """Creates the cameras in a scene and captures CameraFrames from them."""
 
-    def __init__(self, scene: sapien.Scene, names, image_size, robot_links: dict[str, object], near=0.01, far=5.0):
-        height, width = (image_size, image_size) if isinstance(image_size, int) else tuple(image_size)
+    def __init__(
+        self, scene: sapien.Scene, names, image_size, robot_links: dict[str, object], near=0.01, far=5.0,
+        depth: bool = True, segmentation: bool = True,
+    ):
         self.scene = scene
+        self.depth, self.segmentation = bool(depth), bool(segmentation)
         self.cameras: dict[str, sapien.render.RenderCameraComponent] = {}
         for name in names:
             if name not in DEFAULT_SPECS:
                 raise ValueError(f"unknown camera '{name}'; available: {', '.join(CAMERA_NAMES)}")
+        self.sizes = sizes_per_camera(image_size, names)
+        for name in names:
+            height, width = self.sizes[name]
             spec = DEFAULT_SPECS[name]
             pose = look_at_pose(spec.eye, spec.look_at, spec.up)
             fovy = np.deg2rad(spec.fovy_deg)
@@ -82,12 +88,15 @@ class Cameras:
             cam = self.cameras[name]
             cam.take_picture()
             color = cam.get_picture("Color")  # (H, W, 4) float in [0, 1]
-            position = cam.get_picture("Position")  # (H, W, 4): OpenGL camera xyz, depth-buffer value
-            seg = cam.get_picture("Segmentation")  # (H, W, 4) uint32: [..., 1] is the entity id
             rgb = (np.clip(color[..., :3], 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
-            depth = (-position[..., 2]).astype(np.float32)
-            depth[position[..., 3] >= 1.0] = 0.0
-            depth[depth < 0] = 0.0
+            depth = seg = None
+            if self.depth:
+                position = cam.get_picture("Position")  # (H, W, 4): OpenGL camera xyz, depth-buffer value
+                depth = (-position[..., 2]).astype(np.float32)
+                depth[position[..., 3] >= 1.0] = 0.0
+                depth[depth < 0] = 0.0
+            if self.segmentation:
+                seg = cam.get_picture("Segmentation")[..., 1].astype(np.int32)  # [..., 1] is the entity id
             # SAPIEN puts the principal point at W/2 with pixel u covering [u, u + 1); OpenCV
             # puts pixel u's centre at coordinate u, so shift the principal point by half a pixel
             intrinsic = np.asarray(cam.get_intrinsic_matrix(), dtype=np.float64).copy()
@@ -96,7 +105,7 @@ class Cameras:
             frames[name] = CameraFrame(
                 rgb=rgb,
                 depth=depth,
-                segmentation=seg[..., 1].astype(np.int32),
+                segmentation=seg,
                 intrinsic=intrinsic,
                 cam_to_world=np.asarray(cam.get_model_matrix(), dtype=np.float64) @ _GL_TO_CV,
             )

@@ -37,9 +37,9 @@ def parse(mode: str, action) -> tuple[np.ndarray | None, str | None]:
     try:
         values = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError):
-        return None, f"a {mode} action must be {dim} numbers, got {type(action).__name__}"
+        return None, f"an action in control mode {mode} must be {dim} numbers, not a {type(action).__name__}"
     if values.shape != (dim,):
-        return None, f"a {mode} action must have shape ({dim},), got {values.shape}"
+        return None, f"an action in control mode {mode} must have shape ({dim},), got {values.shape}"
     if not np.all(np.isfinite(values)):
         bad = [int(i) for i in np.nonzero(~np.isfinite(values))[0]]
         return None, f"the {mode} action has NaN or infinite values at index(es) {bad}"

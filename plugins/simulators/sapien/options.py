@@ -12,14 +12,33 @@ CONTROL_MODES = ("ee_delta", "ee_pose", "joint_pos", "joint_delta")
 #: Vulkan guarantees 2D images up to 4096 pixels a side on every device (maxImageDimension2D);
 #: measured on lavapipe: one 4096 camera renders (79 s, 6.2 GB), 16385 fails ("cannot create image").
 MAX_IMAGE_SIZE = 4096
+DEFAULT_IMAGE_SIZE = 128
 
 
 def _side(v: Any) -> bool:
     return isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= MAX_IMAGE_SIZE
 
 
-def _image_size(v: Any) -> bool:
+def _one_size(v: Any) -> bool:
     return _side(v) or (isinstance(v, list) and len(v) == 2 and all(_side(s) for s in v))
+
+
+def _image_size(v: Any) -> bool:
+    if isinstance(v, dict):
+        return len(v) > 0 and set(v) <= set(CAMERA_NAMES) and all(_one_size(s) for s in v.values())
+    return _one_size(v)
+
+
+def sizes_per_camera(image_size: Any, cameras) -> dict[str, tuple[int, int]]:
+    """(height, width) of each camera: image_size is an int, [height, width], or a mapping
+    camera -> either (cameras it leaves out get DEFAULT_IMAGE_SIZE)."""
+    def pair(v: Any) -> tuple[int, int]:
+        return (int(v), int(v)) if isinstance(v, int) else (int(v[0]), int(v[1]))
+
+    if isinstance(image_size, dict) or hasattr(image_size, "items"):
+        given = dict(image_size.items())
+        return {c: pair(given.get(c, DEFAULT_IMAGE_SIZE)) for c in cameras}
+    return {c: pair(image_size) for c in cameras}
 
 
 def _cameras(v: list) -> bool:
@@ -28,9 +47,13 @@ def _cameras(v: list) -> bool:
 
 @dataclass
 class SapienOptions:
-    image_size: Any = field(  # an int or [height, width]: OmegaConf has no Union, so the rule checks the type
-        default=128,
-        metadata=rule(_image_size, f"an integer from 1 to {MAX_IMAGE_SIZE}, or [height, width] of two such integers"),
+    image_size: Any = field(  # an int, [height, width] or camera -> either: OmegaConf has no Union, so the rule checks the type
+        default=DEFAULT_IMAGE_SIZE,
+        metadata=rule(
+            _image_size,
+            f"an integer from 1 to {MAX_IMAGE_SIZE}, or [height, width] of two such integers, or a mapping from "
+            f"camera names ({', '.join(CAMERA_NAMES)}) to either",
+        ),
     )
     cameras: List[str] = field(
         default_factory=lambda: list(CAMERA_NAMES),
@@ -43,6 +66,10 @@ class SapienOptions:
     control_hz: float = field(default=10.0, metadata=above(0))
     control_mode: str = field(default="ee_delta", metadata=one_of(*CONTROL_MODES))
     sample_variations: bool = True
+    #: read depth / segmentation pictures too (the oracle and grounding_dino detectors need depth,
+    #: the oracle segmentation); false skips reading them: CameraFrame.depth / .segmentation are None
+    depth: bool = True
+    segmentation: bool = True
     render: bool = True
     lin_speed: float = field(default=0.35, metadata=above(0))  # m/s of the gripper along a straight line
     joint_speed: float = field(default=1.3, metadata=above(0))  # rad/s

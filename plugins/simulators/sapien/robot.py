@@ -115,6 +115,28 @@ class Panda:
         self.pinocchio.compute_forward_kinematics(q)
         return self.base_pose * self.pinocchio.get_link_pose(self.tcp_index)
 
+    def unwrap(self, q: np.ndarray, seed_q: np.ndarray) -> np.ndarray:
+        """Revolute joints 1, 3, 5, 7 may have wrapped by 2*pi; bring them back near the seed."""
+        for j in (0, 2, 4, 6):
+            while q[j] - seed_q[j] > np.pi and q[j] - 2 * np.pi >= self.qlimits[j, 0]:
+                q[j] -= 2 * np.pi
+            while seed_q[j] - q[j] > np.pi and q[j] + 2 * np.pi <= self.qlimits[j, 1]:
+                q[j] += 2 * np.pi
+        return q
+
+    def ik_masked(self, target: sapien.Pose, seed_q: np.ndarray, mask: np.ndarray, iterations: int = 200):
+        """(arm joints, converged) solving only the arm joints where mask is 1; no limit check, no unwrapping."""
+        seed = np.concatenate([seed_q, [FINGER_OPEN, FINGER_OPEN]])
+        q, ok, _err = self.pinocchio.compute_inverse_kinematics(
+            self.tcp_index,
+            self.base_pose.inv() * target,
+            initial_qpos=seed,
+            active_qmask=np.concatenate([np.asarray(mask, dtype=np.int32), [0, 0]]).astype(np.int32),
+            eps=1e-5,
+            max_iterations=iterations,
+        )
+        return self.unwrap(np.asarray(q[:ARM_JOINTS], dtype=float), seed_q), bool(ok)
+
     def ik(self, target: sapien.Pose, seed_q: np.ndarray, iterations: int = 200) -> np.ndarray | None:
         """Arm joint positions that put the TCP at the world pose `target`, or None."""
         seed = np.concatenate([np.clip(seed_q, self.qlimits[:, 0], self.qlimits[:, 1]), [FINGER_OPEN, FINGER_OPEN]])
@@ -128,13 +150,7 @@ class Panda:
         )
         if not ok:
             return None
-        q = np.asarray(q[:ARM_JOINTS], dtype=float)
-        # Revolute joints 1, 3, 5, 7 may have wrapped by 2*pi; bring them back near the seed.
-        for j in (0, 2, 4, 6):
-            while q[j] - seed_q[j] > np.pi and q[j] - 2 * np.pi >= self.qlimits[j, 0]:
-                q[j] -= 2 * np.pi
-            while seed_q[j] - q[j] > np.pi and q[j] + 2 * np.pi <= self.qlimits[j, 1]:
-                q[j] += 2 * np.pi
+        q = self.unwrap(np.asarray(q[:ARM_JOINTS], dtype=float), seed_q)
         margin = 1e-3
         if np.any(q < self.qlimits[:, 0] - margin) or np.any(q > self.qlimits[:, 1] + margin):
             return None

@@ -26,6 +26,8 @@ class World:
         image_size: int | tuple[int, int] = 128,
         cameras=CAMERA_NAMES,
         render: bool = True,
+        depth: bool = True,
+        segmentation: bool = True,
     ):
         self.scene = sapien.Scene()
         self.scene.set_timestep(1.0 / physics_hz)
@@ -34,7 +36,11 @@ class World:
             self._build_lights()
         self.robot = Panda(self.scene, sapien.Pose(ROBOT_BASE))
         self.cameras = (
-            Cameras(self.scene, list(cameras), image_size, {l.name: l for l in self.robot.links}) if render else None
+            Cameras(
+                self.scene, list(cameras), image_size, {l.name: l for l in self.robot.links}, depth=depth, segmentation=segmentation
+            )
+            if render
+            else None
         )
         self.static_ids = {self.table.per_scene_id, self.ground.per_scene_id}
 

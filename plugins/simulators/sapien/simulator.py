@@ -22,8 +22,9 @@ from xicm.core.types import (
 from . import control_modes
 from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
-from .options import CONTROL_MODES, frames_per_step
+from .options import CONTROL_MODES, frames_per_step, sizes_per_camera
 from .objects import ObjectSet
+from .robot import ARM_JOINTS
 from .scene import TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
 
@@ -32,7 +33,8 @@ class SapienSimulator(Simulator):
     """AGNOSTOS-style tabletop scenes with a Franka Panda, rendered headless through Vulkan.
 
     Options:
-        image_size: camera resolution (int for square, or [height, width]).
+        image_size: camera resolution: an int (square), [height, width], or camera -> either
+            (cameras it leaves out get 128).
         cameras: names of the cameras to render (front, left_shoulder, right_shoulder, overhead, wrist).
         physics_hz: physics steps per second of simulated time.
         frame_hz: frames per second: key moves are followed, recorded and watched by the task
@@ -42,6 +44,7 @@ class SapienSimulator(Simulator):
             (layouts in control_modes.py).
         sample_variations: pick a random variation per episode for tasks that have several
             (False: always variation 0, what the unseen tasks are evaluated on).
+        depth, segmentation: read those pictures too (False: CameraFrame.depth / .segmentation are None).
         render: False builds a physics-only simulator (observe() is then unavailable).
         lin_speed, joint_speed: TCP (m/s) and joint (rad/s) speed limits of a move.
         tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
@@ -60,15 +63,22 @@ class SapienSimulator(Simulator):
         control_mode: str = "ee_delta",
         sample_variations: bool = True,
         render: bool = True,
+        depth: bool = True,
+        segmentation: bool = True,
         lin_speed: float = 0.35,
         joint_speed: float = 1.3,
         *,
         tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
-        if not isinstance(image_size, int):  # [height, width] (a list, tuple or OmegaConf ListConfig)
-            image_size = tuple(int(v) for v in image_size)
         cameras = tuple(str(c) for c in cameras)
-        self.world = World(physics_hz=float(physics_hz), image_size=image_size, cameras=cameras, render=bool(render))
+        self.world = World(
+            physics_hz=float(physics_hz),
+            image_size=sizes_per_camera(image_size, cameras),
+            cameras=cameras,
+            render=bool(render),
+            depth=bool(depth),
+            segmentation=bool(segmentation),
+        )
         self.robot = self.world.robot
         self.objects = ObjectSet(self.world.scene)
         self.controller = Controller(
@@ -125,6 +135,10 @@ class SapienSimulator(Simulator):
     def _require_task(self) -> None:
         if self.task is None:
             raise RuntimeError("call reset(task, seed, episode) first")
+
+    def image_sizes(self) -> dict[str, tuple[int, int]]:
+        """(height, width) of each camera."""
+        return dict(self.world.cameras.sizes) if self.world.cameras is not None else {}
 
     def object_names(self) -> list[str]:
         self._require_task()
@@ -256,8 +270,7 @@ class SapienSimulator(Simulator):
             except ValueError as exc:
                 return None, str(exc)
             world = self.robot.base_pose * sapien.Pose(pose[:3], pose[3:])
-            # seeded from the commanded joints: the measured ones lag them while moving
-            q = self.robot.ik(world, self.controller._hold_q)
+            q = self._ik_near(world, self.controller._hold_q)
             if q is None:
                 xyz = np.round(pose[:3], 3).tolist()
                 return None, f"no joint configuration within the Panda's limits puts the gripper at {xyz} (base frame)"
@@ -267,6 +280,25 @@ class SapienSimulator(Simulator):
             bad = [int(j) + 1 for j in np.nonzero(outside)[0]]
             return None, f"the {mode} action's joint target lies outside the Panda's limits at joint(s) {bad}"
         return q, None
+
+    def _ik_near(self, world: sapien.Pose, hold: np.ndarray) -> np.ndarray | None:
+        """IK seeded from the commanded joints (the measured ones lag them while moving). The
+        solver knows no joint limits: a solution past one is solved again with that joint held
+        at the limit (the arm has a joint to spare), else from a seed pulled inside the limits."""
+        robot = self.robot
+        lo, hi = robot.qlimits[:, 0], robot.qlimits[:, 1]
+        mask = np.ones(ARM_JOINTS, dtype=np.int32)
+        seed = hold.copy()
+        for _ in range(3):
+            q, ok = robot.ik_masked(world, seed, mask)
+            if not ok:
+                break
+            past = ((q < lo - 1e-3) | (q > hi + 1e-3)) & (mask == 1)
+            if not past.any():
+                return np.clip(q, lo, hi)
+            mask[past] = 0  # hold these joints at their limits and solve with the others
+            seed = np.where(past, np.clip(q, lo, hi), seed)
+        return robot.ik(world, np.clip(hold, lo + 0.2, hi - 0.2))
 
     def record_scripted(self, cameras=None) -> ControlRecording:
         """Run the scripted solution from the reset state, recording at the control rate: the

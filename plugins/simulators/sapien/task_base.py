@@ -61,6 +61,9 @@ class Task(ABC):
     instruction: ClassVar[str]
     #: the objects described to the LLM, in prompt order
     object_names: ClassVar[tuple[str, ...]]
+    #: control steps a per-step policy gets by default: ceil(2 x the longest scripted demo
+    #: measured by benchmarks/demo_lengths.py at control_hz 10), see docs/DESIGN.md
+    max_control_steps: ClassVar[int]
 
     def __init__(self, world: World, objects: ObjectSet):
         self.world = world

@@ -33,6 +33,7 @@ class LazyTask:
     split = property(lambda self: self.task_class.split)
     instruction = property(lambda self: self.task_class.instruction)
     object_names = property(lambda self: self.task_class.object_names)
+    max_control_steps = property(lambda self: getattr(self.task_class, "max_control_steps", None))
 
     def __call__(self, *args, **kwargs):
         return self.task_class(*args, **kwargs)

@@ -47,6 +47,7 @@ def sample_spots(rng: np.random.Generator, count: int, xs, ys, gap: float) -> li
 
 class CloseJar(Task):
     name = "close_jar"
+    max_control_steps = 94  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "close the red jar"
     object_names = ("red jar", "green jar", "jar lid")

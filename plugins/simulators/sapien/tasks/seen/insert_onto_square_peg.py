@@ -37,6 +37,7 @@ CLEAR = 0.03  # ring bottom above the spoke tops while carrying
 
 class InsertOntoSquarePeg(Task):
     name = "insert_onto_square_peg"
+    max_control_steps = 80  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the ring on the red spoke"
     object_names = ("square ring", "red spoke", "green spoke", "blue spoke")

@@ -55,6 +55,7 @@ def add_ring(builder, z0: float, colour, r_bottom: float = RING_IN, r_top: float
 
 class LightBulbIn(Task):
     name = "light_bulb_in"
+    max_control_steps = 82  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "screw in the red light bulb"
     object_names = ("red light bulb", "green light bulb", "lamp")

@@ -38,6 +38,7 @@ def _slot_centre_z(index: int) -> float:
 
 class OpenDrawer(Task):
     name = "open_drawer"
+    max_control_steps = 50  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "open the top drawer"
     object_names = ("top drawer handle", "middle drawer handle", "bottom drawer handle")

@@ -50,6 +50,7 @@ def wrist(theta: float) -> float:
 
 class PlaceCups(Task):
     name = "place_cups"
+    max_control_steps = 418  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "place 1 cup on the cup holder"
     object_names = ("red cup", "green cup", "blue cup", "cup holder")

@@ -60,6 +60,7 @@ def in_slot(shape: str, x: float, y: float) -> bool:
 
 class PlaceShapeInShapeSorter(Task):
     name = "place_shape_in_shape_sorter"
+    max_control_steps = 106  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the cube in the shape sorter"
     object_names = ("shape sorter", "cube", "cylinder", "cross", "cuboid")

@@ -41,6 +41,7 @@ GRIP_BELOW_TOP = 0.012  # the TCP is this far below the bottle's top when graspi
 
 class PlaceWineAtRackLocation(Task):
     name = "place_wine_at_rack_location"
+    max_control_steps = 92  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "stack the wine bottle to the left of the rack"
     object_names = ("wine bottle", "left slot", "middle slot", "right slot")

@@ -37,6 +37,7 @@ def instruction_for(colours: list[str]) -> str:
 
 class PushButtons(Task):
     name = "push_buttons"
+    max_control_steps = 104  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "push the red button"
     object_names = ("red button", "green button", "blue button")

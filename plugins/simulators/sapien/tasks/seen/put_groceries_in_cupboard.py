@@ -47,6 +47,7 @@ DEEP = 0.09  # the demonstrator puts the item's centre this far behind the cupbo
 
 class PutGroceriesInCupboard(Task):
     name = "put_groceries_in_cupboard"
+    max_control_steps = 128  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the soup in the cupboard"
     object_names = ("soup", "crackers", "mustard", "sugar", "cupboard")

@@ -58,6 +58,7 @@ def fold_yaw(yaw: float) -> float:
 
 class PutItemInDrawer(OpenDrawer):
     name = "put_item_in_drawer"
+    max_control_steps = 208  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the item in the top drawer"
     object_names = ("item", "top drawer handle", "middle drawer handle", "bottom drawer handle")

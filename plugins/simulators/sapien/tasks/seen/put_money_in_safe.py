@@ -46,6 +46,7 @@ def _floor_z(index: int) -> float:
 
 class PutMoneyInSafe(Task):
     name = "put_money_in_safe"
+    max_control_steps = 124  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the money away in the safe on the bottom shelf"
     object_names = ("money", "safe", "bottom shelf", "middle shelf", "top shelf")

@@ -45,6 +45,7 @@ def wrap(angle: float) -> float:
 
 class ReachAndDrag(Task):
     name = "reach_and_drag"
+    max_control_steps = 134  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "use the stick to drag the cube onto the red target"
     object_names = ("stick", "cube", "red target", "green target", "blue target", "yellow target")

@@ -43,6 +43,7 @@ def down_yaw(yaw: float) -> np.ndarray:
 
 class SlideBlockToColorTarget(Task):
     name = "slide_block_to_color_target"
+    max_control_steps = 62  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "slide the block to green target"
     object_names = ("block", "green target", "blue target", "pink target", "yellow target")

@@ -49,6 +49,7 @@ def instruction_for(n: int, colour: str) -> str:
 
 class StackBlocks(Task):
     name = "stack_blocks"
+    max_control_steps = 336  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "stack 2 red blocks"
     object_names = (

@@ -44,6 +44,7 @@ def near(angle: float, ref: float, period: float) -> float:
 
 class SweepToDustpanOfSize(Task):
     name = "sweep_to_dustpan_of_size"
+    max_control_steps = 86  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "sweep dirt to the tall dustpan"
     object_names = ("broom", "dirt", "tall dustpan", "short dustpan")

@@ -45,6 +45,7 @@ def down_yaw(yaw: float) -> np.ndarray:
 
 class TurnTap(Task):
     name = "turn_tap"
+    max_control_steps = 90  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "turn left tap"
     object_names = ("left tap", "right tap", "faucet")

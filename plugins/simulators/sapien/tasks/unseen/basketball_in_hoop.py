@@ -35,6 +35,7 @@ STEP = np.deg2rad(5.0)
 
 class BasketballInHoop(Task):
     name = "basketball_in_hoop"
+    max_control_steps = 106  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "put the ball in the hoop"
     object_names = ("ball", "hoop")

@@ -49,6 +49,7 @@ STEP = np.deg2rad(5.0)
 
 class BeatTheBuzz(Task):
     name = "beat_the_buzz"
+    max_control_steps = 76  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "beat the buzz"
     object_names = ("wand", "buzz wire", "start rest", "end rest")

@@ -32,6 +32,7 @@ Y_AXIS = [np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)]  # joint x axis -> +y:
 
 class CloseLaptopLid(Task):
     name = "close_laptop_lid"
+    max_control_steps = 68  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "close laptop lid"
     object_names = ("laptop", "laptop lid")

@@ -33,6 +33,7 @@ SUCCESS_ANGLE = np.deg2rad(40.0)
 
 class CloseMicrowave(Task):
     name = "close_microwave"
+    max_control_steps = 216  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "close microwave"
     object_names = ("microwave", "microwave door", "microwave door handle")

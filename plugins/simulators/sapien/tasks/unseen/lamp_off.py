@@ -137,5 +137,6 @@ class LampTask(Task):
 
 class LampOff(LampTask):
     name = "lamp_off"
+    max_control_steps = 46  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     instruction = "turn off the light"
     start_lit = True

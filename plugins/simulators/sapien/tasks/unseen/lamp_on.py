@@ -23,5 +23,6 @@ from .lamp_off import LampTask
 
 class LampOn(LampTask):
     name = "lamp_on"
+    max_control_steps = 46  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     instruction = "turn on the light"
     start_lit = False

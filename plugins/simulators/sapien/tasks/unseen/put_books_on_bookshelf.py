@@ -42,6 +42,7 @@ SPAWN_SHELF = ((0.32, 0.38), (-0.08, 0.08), 20.0)
 
 class PutBooksOnBookshelf(Task):
     name = "put_books_on_bookshelf"
+    max_control_steps = 94  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "put 1 books on bookshelf"
     object_names = ("book 1", "book 2", "book 3", "bookshelf", "top shelf")

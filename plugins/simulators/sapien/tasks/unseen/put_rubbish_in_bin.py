@@ -37,6 +37,7 @@ SPAWN_BIN = ((0.32, 0.42), (-0.18, 0.18), 0.19)
 
 class PutRubbishInBin(Task):
     name = "put_rubbish_in_bin"
+    max_control_steps = 94  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "put rubbish in bin"
     object_names = ("rubbish", "tomato 1", "tomato 2", "bin")

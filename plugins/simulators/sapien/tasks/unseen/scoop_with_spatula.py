@@ -80,6 +80,7 @@ def rounded_cube(builder, side, r, color, material, density):
 
 class ScoopWithSpatula(Task):
     name = "scoop_with_spatula"
+    max_control_steps = 98  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "scoop up the cube and lift it with the spatula"
     object_names = ("spatula", "cube")

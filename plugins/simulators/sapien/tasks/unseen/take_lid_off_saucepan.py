@@ -36,6 +36,7 @@ NEAR = PAN_R + 0.05  # ... with its centre this close to the pan's axis
 
 class TakeLidOffSaucepan(Task):
     name = "take_lid_off_saucepan"
+    max_control_steps = 48  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "take lid off the saucepan"
     object_names = ("saucepan", "saucepan lid")

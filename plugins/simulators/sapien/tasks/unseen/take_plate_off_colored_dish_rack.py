@@ -44,6 +44,7 @@ UPRIGHT = [np.cos(-np.pi / 4), np.sin(-np.pi / 4), 0.0, 0.0]
 
 class TakePlateOffColoredDishRack(Task):
     name = "take_plate_off_colored_dish_rack"
+    max_control_steps = 106  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "take plate off the black colored rack"
     object_names = ("plate", "dish rack", "black rack", "red rack", "purple rack")

@@ -37,6 +37,7 @@ PULL = 0.06  # how far the demonstrator pulls the stick out
 
 class TakeUsbOutOfComputer(Task):
     name = "take_usb_out_of_computer"
+    max_control_steps = 72  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "take usb out of computer"
     object_names = ("computer", "usb stick")

@@ -34,6 +34,7 @@ Y_AXIS = [np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)]  # joint x axis -> +y:
 
 class ToiletSeatDown(Task):
     name = "toilet_seat_down"
+    max_control_steps = 62  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "toilet seat down"
     object_names = ("toilet", "toilet seat")

@@ -53,6 +53,7 @@ def _socket_face(builder, colour) -> None:
 
 class UnplugCharger(Task):
     name = "unplug_charger"
+    max_control_steps = 74  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "unplug charger"
     object_names = ("charger", "wall socket", "wall")

@@ -59,6 +59,7 @@ def hand_quat(yaw_deg: float, roll_deg: float) -> np.ndarray:
 
 class WaterPlants(Task):
     name = "water_plants"
+    max_control_steps = 86  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "water plant"
     object_names = ("watering can", "plant")

@@ -1,0 +1,173 @@
+"""One xicm task as a Gymnasium environment, stepped at the simulator's control rate.
+
+reset(seed=s, options={"episode": e}) loads the benchmark's scene (s, e): the same scene
+xicm-eval evaluates as seed s, episode e (seed None: drawn from the env's generator; episode
+default 0). Observations: {"state": proprio} plus, for obs_mode "rgb", {"rgb": {camera: HxWx3}}
+(and "depth" for "rgbd"). The reward is 1.0 on the step that succeeds; terminated on success,
+truncated after max_control_steps (the task's default unless given). A step the simulator
+refuses (unreachable, bad action) leaves the state as it was and says why in
+info["error_kind"] / info["error_message"].
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from xicm.core.errors import ConfigError
+
+OBS_MODES = ("state", "rgb", "rgbd")
+STATE_DIMS = {"joint_positions": 7, "gripper_width": 1, "tcp_pose": 7, "gripper_open": 1}
+SEED_RANGE = 2**31  # seeds drawn when reset gets none
+FAR = 5.0  # metres: the cameras' far plane (depth is 0 where nothing was hit)
+
+# per-step bounds of the action boxes (the simulator takes any finite value; these are what
+# random exploration and normalisation should assume): metres, radians
+EE_DELTA_BOUND = (0.05, 0.25)
+JOINT_DELTA_BOUND = 0.2
+
+
+class XicmEnv(gymnasium.Env):
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        task: str,
+        obs_mode: str = "rgb",
+        control_mode: str = "ee_delta",
+        render_mode: str | None = None,
+        cameras: list[str] | tuple[str, ...] = ("front", "wrist"),
+        image_size: Any = 128,
+        max_control_steps: int | None = None,
+        variations: str = "sampled",
+        simulator: str = "sapien",
+        simulator_options: dict[str, Any] | None = None,
+    ):
+        from xicm.core.plugins import get_registry
+
+        if obs_mode not in OBS_MODES:
+            raise ConfigError(f"obs_mode must be one of {', '.join(OBS_MODES)}, not {obs_mode!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ConfigError(f"render_mode must be 'rgb_array' or None, not {render_mode!r}")
+        if variations not in ("zero", "sampled"):
+            raise ConfigError(f"variations must be 'zero' or 'sampled', not {variations!r}")
+        registry = get_registry()
+        options = {
+            "name": simulator,
+            "cameras": list(cameras),
+            "image_size": image_size if isinstance(image_size, (int, dict)) else list(image_size),
+            "control_mode": control_mode,
+            "render": obs_mode != "state" or render_mode is not None,
+            **(simulator_options or {}),
+        }
+        check = registry.check_options("simulator", options).extra.get("check")
+        if check is not None:
+            check(options)
+        self.task, self.obs_mode, self.render_mode = task, obs_mode, render_mode
+        self.cameras = [str(c) for c in cameras]
+        self.sim = registry.create_simulator(options)
+        if task not in self.sim.task_names():
+            self.sim.close()
+            raise ConfigError(f"unknown task {task!r}; available: {', '.join(self.sim.task_names())}")
+        self.sim.sample_variations = variations == "sampled"
+        info = self.sim.task_info(task)
+        budget = max_control_steps or info.max_control_steps
+        if budget is None:
+            self.sim.close()
+            raise ConfigError(f"task {task!r} declares no max_control_steps: pass max_control_steps=N")
+        self.max_control_steps = int(budget)
+        self.instruction = info.instruction  # variation 0's; reset sets the episode's own
+        self.action_space = _action_space(self.sim, control_mode)
+        self.observation_space = self._observation_space()
+        self._steps = 0
+        self._frames: dict[str, Any] = {}
+
+    # --- spaces -------------------------------------------------------------------------------
+    def _observation_space(self) -> spaces.Dict:
+        lo_q, hi_q = self.sim.robot.qlimits[:, 0], self.sim.robot.qlimits[:, 1]
+        bounds = {  # joint limits, finger travel, 2 m around the base, a gripper flag
+            "joint_positions": (lo_q - 0.1, hi_q + 0.1),
+            "gripper_width": ([0.0], [0.1]),
+            "tcp_pose": ([-2.0] * 3 + [-1.0] * 4, [2.0] * 3 + [1.0] * 4),
+            "gripper_open": ([0.0], [1.0]),
+        }
+        state = spaces.Dict(
+            {k: spaces.Box(np.float32(lo), np.float32(hi), (STATE_DIMS[k],), np.float32) for k, (lo, hi) in bounds.items()}
+        )
+        parts: dict[str, spaces.Space] = {"state": state}
+        if self.obs_mode != "state":
+            sizes = self.sim.image_sizes()
+            parts["rgb"] = spaces.Dict({c: spaces.Box(0, 255, (*sizes[c], 3), np.uint8) for c in self.cameras})
+        if self.obs_mode == "rgbd":
+            sizes = self.sim.image_sizes()
+            parts["depth"] = spaces.Dict({c: spaces.Box(0.0, FAR, (*sizes[c], 1), np.float32) for c in self.cameras})
+        return spaces.Dict(parts)
+
+    # --- gymnasium ----------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        options = dict(options or {})
+        scene_seed = int(seed) if seed is not None else int(self.np_random.integers(SEED_RANGE))
+        episode = int(options.pop("episode", 0))
+        if options:
+            raise ConfigError(f"unknown reset option(s) {', '.join(sorted(options))}; reset takes 'episode'")
+        self.sim.reset_state(self.task, scene_seed, episode)
+        self.instruction = self.sim.task.episode_instruction
+        self._steps = 0
+        return self._observe(), {"instruction": self.instruction, "seed": scene_seed, "episode": episode, "success": False}
+
+    def step(self, action):
+        outcome = self.sim.step(np.asarray(action, dtype=np.float64))
+        self._steps += 1
+        info = {"success": bool(outcome.success), "instruction": self.instruction}
+        if not outcome.ok:
+            info.update(error_kind=outcome.error_kind, error_message=outcome.error_message)
+        terminated = bool(outcome.success)
+        truncated = not terminated and self._steps >= self.max_control_steps
+        return self._observe(), float(terminated), terminated, truncated, info
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        if self.cameras[0] not in self._frames:
+            self._frames = self.sim.world.render([self.cameras[0]])
+        return self._frames[self.cameras[0]].rgb.copy()
+
+    def close(self) -> None:
+        if getattr(self, "sim", None) is not None:
+            self.sim.close()
+            self.sim = None
+
+    # --- observations -------------------------------------------------------------------------
+    def _observe(self) -> dict[str, Any]:
+        proprio = self.sim.proprio()
+        obs: dict[str, Any] = {"state": {k: proprio[k].astype(np.float32) for k in STATE_DIMS}}
+        self._frames = {}
+        if self.obs_mode != "state":
+            self._frames = self.sim.world.render(self.cameras)
+            obs["rgb"] = {c: self._frames[c].rgb for c in self.cameras}
+        if self.obs_mode == "rgbd":
+            obs["depth"] = {c: self._frames[c].depth[..., None] for c in self.cameras}
+        return obs
+
+
+def _action_space(sim, mode: str) -> spaces.Box:
+    """Bounds of each control mode's vector (control_modes.py has the layouts)."""
+    lo_q, hi_q = sim.robot.qlimits[:, 0], sim.robot.qlimits[:, 1]
+    if mode == "ee_delta":
+        lin, ang = EE_DELTA_BOUND
+        high = np.array([lin] * 3 + [ang] * 3 + [1.0])
+        low = -high
+        low[-1] = 0.0
+    elif mode == "ee_pose":
+        (wlo, whi), base = (np.asarray(v) for v in sim.workspace), np.asarray(sim.robot.base_pose.p)
+        low = np.concatenate([wlo - base, -np.ones(4), [0.0]])
+        high = np.concatenate([whi - base, np.ones(4), [1.0]])
+    elif mode == "joint_pos":
+        low, high = np.append(lo_q, 0.0), np.append(hi_q, 1.0)
+    else:
+        low, high = np.array([-JOINT_DELTA_BOUND] * 7 + [0.0]), np.array([JOINT_DELTA_BOUND] * 7 + [1.0])
+    return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
