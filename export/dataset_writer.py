@@ -19,9 +19,7 @@ def write_dataset(
     *,
     repo_id: str,
     fps: int,
-    cameras: list[str],
-    height: int,
-    width: int,
+    sizes: dict[str, tuple[int, int]],
     action_space: str,
     use_videos: bool,
     vcodec: str,
@@ -29,7 +27,7 @@ def write_dataset(
     log=print,
 ) -> None:
     python = env_python(cache, log)
-    features = feats.features(cameras, height, width, action_space, use_videos)
+    features = feats.features(sizes, action_space, use_videos)
     manifest_path = out_dir.with_name(f".{out_dir.name}.manifest.json")
 
     def write(tmp: Path) -> None:

@@ -31,15 +31,16 @@ def image_key(camera: str) -> str:
     return f"observation.images.{camera}"
 
 
-def features(cameras: list[str], height: int, width: int, action_space: str, use_videos: bool) -> dict[str, dict]:
-    """LeRobotDataset.create's `features` (shapes as lists: they travel as JSON)."""
+def features(sizes: dict[str, tuple[int, int]], action_space: str, use_videos: bool) -> dict[str, dict]:
+    """LeRobotDataset.create's `features` for cameras of (height, width) `sizes` (shapes as
+    lists: they travel as JSON)."""
     out: dict[str, dict] = {
-        image_key(c): {
+        image_key(camera): {
             "dtype": "video" if use_videos else "image",
-            "shape": [height, width, 3],
+            "shape": [int(height), int(width), 3],
             "names": ["height", "width", "channels"],
         }
-        for c in cameras
+        for camera, (height, width) in sizes.items()
     }
     out["observation.state"] = {"dtype": "float32", "shape": [len(STATE_NAMES)], "names": STATE_NAMES}
     out["action"] = {"dtype": "float32", "shape": [len(ACTION_NAMES[action_space])], "names": ACTION_NAMES[action_space]}

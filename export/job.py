@@ -63,19 +63,17 @@ def check_export(cfg: DictConfig) -> tuple[list[str], dict]:
     return tasks, options
 
 
-def image_shape(image_size) -> tuple[int, int]:
-    return (int(image_size), int(image_size)) if isinstance(image_size, int) else (int(image_size[0]), int(image_size[1]))
-
-
 def run_export(cfg: DictConfig) -> dict:
     tasks, options = check_export(cfg)
     ex = cfg.export
     out_dir = Path(ex.out_dir)
-    height, width = image_shape(options["image_size"])
+    from xicm.plugins.simulators.sapien.options import sizes_per_camera
+
     fps = float(options["control_hz"])
     if fps != int(fps):
         raise ConfigError(f"simulator.control_hz must be a whole number of steps per second for a LeRobot dataset (fps), not {fps}")
     cameras = list(ex.cameras)
+    sizes = sizes_per_camera(options["image_size"], cameras)
     settings = {  # what staged episodes depend on: resuming with other values would mix them
         "simulator": {k: v for k, v in options.items() if k != "control_mode"},
         "seed": int(ex.seed),
@@ -93,7 +91,7 @@ def run_export(cfg: DictConfig) -> dict:
 
     start = time.perf_counter()
     write_dataset(
-        out_dir, episodes, repo_id=str(ex.repo_id), fps=int(fps), cameras=cameras, height=height, width=width,
+        out_dir, episodes, repo_id=str(ex.repo_id), fps=int(fps), sizes=sizes,
         action_space=str(options["control_mode"]), use_videos=bool(ex.use_videos),
         vcodec=str(ex.vcodec), cache=cfg.paths.cache,
     )

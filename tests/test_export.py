@@ -47,7 +47,7 @@ def test_features_match_the_simulators_action_spaces():
     from xicm.plugins.simulators.sapien.control_modes import ACTION_DIMS
 
     assert {k: len(v) for k, v in feats.ACTION_NAMES.items()} == ACTION_DIMS
-    f = feats.features(["front", "wrist"], 96, 128, "joint_pos", use_videos=True)
+    f = feats.features({"front": (64, 64), "wrist": (96, 128)}, "joint_pos", use_videos=True)
     assert f["observation.images.wrist"] == {"dtype": "video", "shape": [96, 128, 3], "names": ["height", "width", "channels"]}
     assert f["action"]["names"] == feats.ACTION_NAMES["joint_pos"] and f["observation.state"]["shape"] == [16]
 
@@ -74,7 +74,8 @@ def test_cli_bad_input_prints_one_sentence_and_no_traceback(tmp_path):
     assert out.returncode == 2 and "Traceback" not in out.stderr
     assert out.stderr.strip().splitlines() == [
         "xicm: error: simulator.image_size must be an integer from 1 to 4096, or [height, width] of two such "
-        "integers, not 5000"
+        "integers, or a mapping from camera names (front, left_shoulder, right_shoulder, overhead, wrist) to either, "
+        "not 5000"
     ]
 
 
@@ -127,7 +128,7 @@ def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported):
     assert int(data["num_episodes"]) == 4 and int(data["num_frames"]) == sum(steps)
     assert data["tasks"].tolist() == [str(np.load(p)["instruction"]) for p in staged]
     features = json.loads(str(data["features"]))
-    expected = feats.features(["front", "wrist"], 64, 64, "ee_delta", use_videos=True)
+    expected = feats.features({"front": (64, 64), "wrist": (64, 64)}, "ee_delta", use_videos=True)
     assert {k: features[k]["shape"] for k in expected} == {k: v["shape"] for k, v in expected.items()}
     assert (out_dir / "meta" / "info.json").exists() and list((out_dir / "videos").rglob("*.mp4"))
     first = 0
