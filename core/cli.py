@@ -44,6 +44,12 @@ def collect_main() -> None:
     _collect_job()
 
 
+def export_main() -> None:
+    """xicm-export: record export.tasks' scripted demos at the control rate into a LeRobot dataset (resumable)."""
+    _check_command_line()
+    _export_job()
+
+
 @hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="config")
 def _eval_job(cfg: DictConfig) -> None:
     from hydra.core.hydra_config import HydraConfig
@@ -68,6 +74,16 @@ def _collect_job(cfg: DictConfig) -> None:
 
     try:
         run_collect(cfg)
+    except (XicmError, UnknownPluginError) as exc:
+        _fail(exc)
+
+
+@hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="config")
+def _export_job(cfg: DictConfig) -> None:
+    from xicm.export.job import run_export
+
+    try:
+        run_export(cfg)
     except (XicmError, UnknownPluginError) as exc:
         _fail(exc)
 

@@ -63,13 +63,18 @@ class EpisodeWalk:
         out_path: str | Path,
         workspace,
         progress: bool = True,
+        writer=None,
+        desc: str = "collect",
     ) -> dict[str, tuple[int, int]]:
-        """Drive `submit(task, episode) -> Future[Attempt]` over all tasks; {task: (successes, attempts)}."""
+        """Drive `submit(task, episode) -> Future[Attempt]` over all tasks; {task: (successes, attempts)}.
+
+        Results go to the pool at `out_path` (a DemoWriter), or to `writer`: any context manager
+        with DemoWriter's has / write / log_attempt / attempts (xicm-export's staging folder)."""
         from tqdm.auto import tqdm
 
         running: dict[Future, _TaskState] = {}
-        with DemoWriter(out_path, workspace) as writer, tqdm(
-            total=self.n * len(self.tasks), desc="collect", unit="demo", disable=not progress, dynamic_ncols=True
+        with writer or DemoWriter(out_path, workspace) as writer, tqdm(
+            total=self.n * len(self.tasks), desc=desc, unit="demo", disable=not progress, dynamic_ncols=True
         ) as bar:
             logged = writer.attempts()
             try:

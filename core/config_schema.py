@@ -49,6 +49,24 @@ class Collect:
 
 
 @dataclass
+class Export:
+    """xicm-export (xicm.export): scripted demos recorded at the control rate -> a LeRobot dataset."""
+
+    tasks: Optional[List[str]] = field(  # null: the seen benchmark's tasks
+        default=MISSING, metadata=rule(lambda v: v is None or _names(v), "null or a non-empty list of distinct task names")
+    )
+    demos_per_task: int = field(default=MISSING, metadata=at_least(1))
+    seed: int = field(default=MISSING, metadata=rule(lambda v: 0 <= v <= SEED_MAX, f"an integer from 0 to {SEED_MAX}"))
+    max_attempts_factor: Any = field(default=MISSING, metadata=number(1))
+    workers: Any = field(default=MISSING, metadata=rule(_workers, "'auto' or an integer >= 1"))
+    cameras: List[str] = field(default=MISSING, metadata=rule(_names, "a non-empty list of distinct camera names"))
+    out_dir: str = MISSING
+    repo_id: str = field(default=MISSING, metadata=rule(lambda v: v.count("/") == 1 and "" not in v.split("/"), "'owner/name'"))
+    use_videos: bool = MISSING
+    vcodec: str = field(default=MISSING, metadata=one_of("libsvtav1", "h264", "hevc"))
+
+
+@dataclass
 class LLMCache:
     enabled: bool = MISSING
     path: str = MISSING
@@ -106,6 +124,7 @@ class XicmConfig:
     paths: Paths = field(default_factory=Paths)
     pool_path: str = MISSING
     collect: Collect = field(default_factory=Collect)
+    export: Export = field(default_factory=Export)
     llm_cache: LLMCache = field(default_factory=LLMCache)
     tracking: Tracking = field(default_factory=Tracking)
     video: Video = field(default_factory=Video)

@@ -4,10 +4,17 @@
 #   - a virtual environment in .venv
 #   - torch first (torch==2.13.0; XICM_TORCH_SPEC overrides), so no other package pulls a CUDA build
 #   - xicm itself, editable, with every extra (LLM, serving, tests)
+#   - FFmpeg's shared libraries: xicm-export's LeRobot datasets are read back (torchcodec) with them
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 bash scripts/install_vulkan.sh
+if ! ldconfig -p | grep -q libavcodec; then
+  echo "[setup] installing ffmpeg (its libraries decode LeRobot dataset videos)"
+  SUDO=$([ "$(id -u)" -eq 0 ] && echo "" || echo sudo)
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends ffmpeg >/dev/null
+fi
 
 PYTHON="${PYTHON:-python3}"
 if [ ! -x .venv/bin/python ]; then

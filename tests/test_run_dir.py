@@ -101,8 +101,8 @@ SAMPLE_OVERRIDES = {
     "simulator": "simulator.image_size=96", "detector": "detector=noisy_oracle", "encoder": "encoder=dynamics",
     "retriever": "retriever=random", "prompt": "prompt.name=mine", "llm": "llm=openai", "policy": "policy.k=3",
     "benchmark": "benchmark.tasks=[push_buttons]", "seeds": "seeds=[1]", "episodes": "episodes=2",
-    "max_steps": "max_steps=5", "pool_path": "pool_path=/pools/other.h5",
-    "paths": "paths.data=/elsewhere", "collect": "collect.workers=1", "llm_cache": "llm_cache.enabled=false",
+    "max_steps": "max_steps=5", "max_control_steps": "max_control_steps=40", "pool_path": "pool_path=/pools/other.h5",
+    "paths": "paths.data=/elsewhere", "collect": "collect.workers=1", "export": "export.workers=1", "llm_cache": "llm_cache.enabled=false",
     "tracking": "tracking.mode=disabled", "video": "video.fps=10", "transcripts": "transcripts=false",
     "shards": "shards.workers=3", "progress": "progress=false", "run_name": "run_name=mine",
 }

@@ -1,0 +1,163 @@
+"""xicm-export's job: record export.tasks' scripted demos at the control rate (resumable, in
+worker processes), then write them as one LeRobot dataset at export.out_dir."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import threading
+import time
+from concurrent.futures import Future
+from importlib.resources import files
+from pathlib import Path
+
+from omegaconf import DictConfig, OmegaConf
+
+from xicm.core import build
+from xicm.core.collect_job import resolve_workers
+from xicm.core.collect_walk import EpisodeWalk
+from xicm.core.config_schema import XicmConfig
+from xicm.core.errors import ConfigError
+from xicm.core.plugins import get_registry
+from xicm.core.schema import check_config
+from xicm.export.features import ACTION_SPACES
+from xicm.export.staging import Staging
+
+
+def export_tasks(cfg: DictConfig) -> list[str]:
+    """export.tasks, or the seen benchmark's 18 tasks when it is null."""
+    if cfg.export.tasks is not None:
+        return list(cfg.export.tasks)
+    return list(OmegaConf.load(files("xicm.conf").joinpath("benchmark", "seen.yaml").open()).tasks)
+
+
+def simulator_options(cfg: DictConfig) -> dict:
+    """The simulator group with export.cameras as its cameras (only they are built and rendered)."""
+    options = build.group_options(cfg, "simulator")
+    options["cameras"] = list(cfg.export.cameras)
+    return options
+
+
+def check_export(cfg: DictConfig) -> tuple[list[str], dict]:
+    """Every name and value, before anything is simulated; one ConfigError sentence otherwise."""
+    check_config(cfg, XicmConfig)
+    registry = get_registry()
+    options = simulator_options(cfg)
+    try:
+        simulator = registry.check_options("simulator", options)
+    except ConfigError as exc:  # export.cameras travel as simulator.cameras: name the key the user set
+        raise ConfigError(str(exc).replace("simulator.cameras", "export.cameras")) from None
+    if simulator.extra.get("check") is not None:  # rules between options (rates that must divide)
+        simulator.extra["check"](options)
+    if simulator.extra.get("options") is not None:  # the options left out of the YAML take their defaults
+        defaults = OmegaConf.structured(simulator.extra["options"])
+        options = {"name": options["name"], **OmegaConf.to_container(OmegaConf.merge(defaults, {
+            k: v for k, v in options.items() if k != "name"}))}
+    if "control_mode" not in options or options["control_mode"] not in ACTION_SPACES:
+        raise ConfigError(
+            f"simulator '{cfg.simulator.name}' has no per-step control_mode for the dataset's action "
+            f"(one of {', '.join(ACTION_SPACES)}); xicm-export needs simulator=sapien"
+        )
+    tasks = export_tasks(cfg)
+    build.check_tasks(registry, tasks, cfg.simulator.name)
+    return tasks, options
+
+
+def run_export(cfg: DictConfig) -> dict:
+    tasks, options = check_export(cfg)
+    ex = cfg.export
+    out_dir = Path(ex.out_dir)
+    from xicm.plugins.simulators.sapien.options import sizes_per_camera
+
+    fps = float(options["control_hz"])
+    if fps != int(fps):
+        raise ConfigError(f"simulator.control_hz must be a whole number of steps per second for a LeRobot dataset (fps), not {fps}")
+    cameras = list(ex.cameras)
+    sizes = sizes_per_camera(options["image_size"], cameras)
+    settings = {  # what staged episodes depend on: resuming with other values would mix them
+        "simulator": {k: v for k, v in options.items() if k != "control_mode"},
+        "seed": int(ex.seed),
+    }
+    staging = Staging(out_dir.with_name(f"{out_dir.name}.staging"), settings)
+    workers = resolve_workers(ex.workers)
+    walk = EpisodeWalk(tasks, int(ex.demos_per_task), int(ex.seed), float(ex.max_attempts_factor), in_flight=2 * workers)
+    start = time.perf_counter()
+    counts = record_all(walk, staging, options, cameras, int(ex.seed), workers, bool(cfg.progress))
+    recorded = time.perf_counter() - start
+    episodes = [p for t in tasks for p in staging.episodes(t, int(ex.seed), int(ex.demos_per_task))]
+    if not episodes:
+        raise ConfigError(f"no scripted demo of {', '.join(tasks)} succeeded: nothing to export")
+    from xicm.export.dataset_writer import dataset_size, write_dataset
+
+    start = time.perf_counter()
+    write_dataset(
+        out_dir, episodes, repo_id=str(ex.repo_id), fps=int(fps), sizes=sizes,
+        action_space=str(options["control_mode"]), use_videos=bool(ex.use_videos),
+        vcodec=str(ex.vcodec), cache=cfg.paths.cache,
+    )
+    written = time.perf_counter() - start
+    size = dataset_size(out_dir)
+    print(f"\nLeRobot dataset: {out_dir}  ({len(episodes)} episodes, {size / 1e6:.1f} MB; "
+          f"recorded in {recorded:.0f} s with {workers} worker{'s' if workers > 1 else ''}, written in {written:.0f} s)")
+    print("| task | demos | attempts | scripted success % |\n|---|---:|---:|---:|")
+    for task, (ok, attempts) in counts.items():
+        print(f"| {task} | {ok} | {attempts} | {100.0 * ok / max(attempts, 1):.1f} |")
+    return {"counts": counts, "episodes": len(episodes), "staged": episodes, "bytes": size, "record_s": recorded,
+            "write_s": written}
+
+
+def record_all(walk: EpisodeWalk, staging: Staging, options: dict, cameras, seed: int, workers: int, progress: bool):
+    """Run the walk over episodes in this process (workers == 1) or in worker processes."""
+    if workers == 1:
+        from xicm.export.record import attempt_episode
+
+        simulator = get_registry().create_simulator(options)
+        try:
+            def run(task: str, episode: int) -> Future:
+                done: Future = Future()
+                done.set_result(attempt_episode(simulator, task, seed, episode, cameras))
+                return done
+
+            return walk.run(run, None, simulator.workspace, progress, writer=staging, desc="export")
+        finally:
+            simulator.close()
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    context = multiprocessing.get_context("spawn")  # a forked SAPIEN/Vulkan state is not safe
+    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(options, cameras)) as pool:
+        workspace = pool.submit(_worker_workspace).result()
+
+        def run(task: str, episode: int) -> Future:
+            return pool.submit(_worker_attempt, task, seed, episode)
+
+        try:
+            return walk.run(run, None, workspace, progress, writer=staging, desc="export")
+        except BrokenProcessPool as exc:
+            raise RuntimeError(
+                "an export worker process died (see its message above); every recorded episode is staged: "
+                "run the same command again to resume"
+            ) from exc
+
+
+# --- worker processes: one simulator each, kept for the whole export -------------------------
+_WORKER: dict = {}
+
+
+def _worker_start(options: dict, cameras: list[str]) -> None:
+    from xicm.core.collect import _exit_with_parent
+
+    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+    os.environ.setdefault("LP_NUM_THREADS", "1")  # one software-rendering thread per worker
+    _WORKER["simulator"] = get_registry().create_simulator(options)
+    _WORKER["cameras"] = cameras
+
+
+def _worker_workspace():
+    return _WORKER["simulator"].workspace
+
+
+def _worker_attempt(task: str, seed: int, episode: int):
+    from xicm.export.record import attempt_episode
+
+    return attempt_episode(_WORKER["simulator"], task, seed, episode, _WORKER["cameras"])

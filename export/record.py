@@ -1,0 +1,70 @@
+"""One scripted demo recorded at the control rate -> a StagedEpisode (runs in a worker process).
+
+The simulator's `record_scripted(cameras)` plays the task's scripted solution from the reset
+state and returns the control-rate recording; `actions(recording, mode)` (the SAPIEN plugin's
+control_modes, shared with step() and the Gymnasium env) turns it into each action space.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from xicm.core import encoding
+from xicm.core.collect_walk import Attempt
+from xicm.core.interfaces import Simulator
+from xicm.export import features as feats
+from xicm.export.staging import StagedEpisode
+
+
+class NoDemo(Exception):
+    """The episode gives no demo (the reason goes to the staging folder's attempt log)."""
+
+
+def record_episode(simulator: Simulator, task: str, seed: int, episode: int, cameras: list[str]) -> StagedEpisode:
+    from xicm.plugins.simulators.sapien.control_modes import actions
+
+    simulator.reset(task, seed, episode)
+    recording = simulator.record_scripted(cameras=list(cameras))
+    if not recording.success:
+        raise NoDemo("the scripted demonstration did not succeed")
+    arrays: dict[str, np.ndarray] = {}
+    for space in feats.ACTION_SPACES:
+        arrays[f"action.{space}"] = np.asarray(actions(recording, space), dtype=np.float32)
+    steps = len(arrays["action.ee_delta"])
+    if steps == 0 or not recording.key_actions:
+        raise NoDemo("the recording has no control steps or no key actions")
+    for camera in cameras:  # the picture before each step (the final state's is not a frame)
+        arrays[feats.image_key(camera)] = np.asarray(recording.rgb[camera][:steps], dtype=np.uint8)
+    arrays["observation.state"] = np.concatenate(
+        [np.asarray(recording.proprio[part], dtype=np.float32).reshape(-1, len(names))[:steps]
+         for part, names in feats.STATE_PARTS.items()],
+        axis=1,
+    )
+    arrays.update(key_action_columns(recording.key_action_steps, recording.key_actions, steps, simulator.workspace))
+    return StagedEpisode(task, int(seed), int(episode), recording.instruction, arrays)
+
+
+def key_action_columns(key_steps, key_actions, steps: int, workspace) -> dict[str, np.ndarray]:
+    """Per step: the index of the key action it works towards, that key action's 7 integers,
+    and 1 on the step whose end completes it (`key_steps[k]`, a control-step index)."""
+    ends = np.asarray(key_steps, dtype=np.int64)
+    index = np.minimum(np.searchsorted(ends, np.arange(steps), side="left"), len(ends) - 1)
+    ints = np.array([encoding.action_to_ints(a, workspace) for a in key_actions], dtype=np.int64)
+    ends_here = np.zeros(steps, dtype=np.int64)
+    ends_here[ends[ends < steps]] = 1
+    return {
+        "key_action.index": index.reshape(-1, 1),
+        "key_action.ints": ints[index],
+        "key_action.ends_here": ends_here.reshape(-1, 1),
+    }
+
+
+def attempt_episode(simulator: Simulator, task: str, seed: int, episode: int, cameras: list[str]) -> Attempt:
+    """record_episode that never raises: the outcome of one episode, ready to be committed."""
+    try:
+        staged = record_episode(simulator, task, seed, episode, cameras)
+    except NoDemo as exc:
+        return Attempt(task, int(episode), None, str(exc), error=False)
+    except Exception as exc:  # noqa: BLE001 - a failed episode must not stop the export
+        return Attempt(task, int(episode), None, f"{type(exc).__name__}: {exc}", error=True)
+    return Attempt(task, int(episode), staged, "", error=False)

@@ -1,0 +1,202 @@
+"""xicm-export: bad input stops with one sentence; the key-action columns; a real export of two
+seen tasks written and loaded by lerobot's own LeRobotDataset (in its isolated env), whose
+loaded actions replay to success in the Gymnasium env in every action space; a partial export
+resumes."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_module
+
+from xicm.core.errors import ConfigError
+from xicm.core.types import KeyAction
+from xicm.export import features as feats
+from xicm.export.job import check_export, export_tasks
+from xicm.export.record import key_action_columns
+
+
+def _compose(*overrides):
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        return compose("config", overrides=list(overrides))
+
+
+@pytest.mark.parametrize(
+    "override, sentence",
+    [
+        ("export.cameras=[front,nose]", "export.cameras must be a non-empty list of distinct names from front,"),
+        ("simulator.image_size=0", "simulator.image_size must be an integer from 1 to 4096"),
+        ("simulator.image_size=5000", "simulator.image_size must be an integer from 1 to 4096"),
+        ("+simulator.control_mode=ee_velocity", "simulator.control_mode must be one of ee_delta, ee_pose, joint_pos, joint_delta"),
+        ("export.tasks=[close_jar,fly_to_moon]", "unknown task 'fly_to_moon' for simulator 'sapien'; available:"),
+        ("export.repo_id=nameonly", "export.repo_id must be 'owner/name'"),
+    ],
+)
+def test_bad_input_is_one_sentence_before_anything_is_built(override, sentence):
+    with pytest.raises(ConfigError) as err:
+        check_export(_compose(override))
+    assert str(err.value).startswith(sentence) and "\n" not in str(err.value)
+
+
+def test_default_task_list_is_the_seen_benchmark():
+    tasks = export_tasks(_compose())
+    assert len(tasks) == 18 and tasks[0] == "close_jar" and "stack_cups" in tasks
+
+
+def test_features_match_the_simulators_action_spaces():
+    from xicm.plugins.simulators.sapien.control_modes import ACTION_DIMS
+
+    assert {k: len(v) for k, v in feats.ACTION_NAMES.items()} == ACTION_DIMS
+    f = feats.features({"front": (64, 64), "wrist": (96, 128)}, "joint_pos", use_videos=True)
+    assert f["observation.images.wrist"] == {"dtype": "video", "shape": [96, 128, 3], "names": ["height", "width", "channels"]}
+    assert f["action"]["names"] == feats.ACTION_NAMES["joint_pos"] and f["observation.state"]["shape"] == [16]
+
+
+def test_key_action_columns_name_the_key_action_each_step_works_towards():
+    box = ((-0.5, -0.5, 0.7), (0.5, 0.5, 1.7))
+    keys = [KeyAction((0.0, 0.0, 1.0), (1.0, 0.0, 0.0, 0.0), True), KeyAction((0.1, 0.0, 1.0), (1.0, 0.0, 0.0, 0.0), False)]
+    cols = key_action_columns([2, 4], keys, 5, box)
+    assert cols["key_action.index"].ravel().tolist() == [0, 0, 0, 1, 1]
+    assert cols["key_action.ends_here"].ravel().tolist() == [0, 0, 1, 0, 1]
+    assert cols["key_action.ints"][0].tolist() == [50, 50, 30, 36, 36, 36, 1]
+    assert cols["key_action.ints"][4].tolist()[-1] == 0 and cols["key_action.ints"][4][0] == 60
+
+
+def test_cli_bad_input_prints_one_sentence_and_no_traceback(tmp_path):
+    import subprocess
+    import sys
+
+    code = "import sys; from xicm.core.cli import export_main; sys.argv[0] = 'xicm-export'; export_main()"
+    out = subprocess.run(
+        [sys.executable, "-c", code, "simulator.image_size=5000", f"hydra.run.dir={tmp_path}"],
+        capture_output=True, text=True, timeout=300, cwd=tmp_path,
+    )
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert out.stderr.strip().splitlines() == [
+        "xicm: error: simulator.image_size must be an integer from 1 to 4096, or [height, width] of two such "
+        "integers, or a mapping from camera names (front, left_shoulder, right_shoulder, overhead, wrist) to either, "
+        "not 5000"
+    ]
+
+
+# ------------------------------------------------------------------ a real export (slow)
+def _lerobot_env_missing() -> str | None:
+    import ctypes.util
+    import shutil
+
+    if shutil.which("python3.11") is None:
+        return "no python3.11 on PATH to build the lerobot environment from"
+    if ctypes.util.find_library("avcodec") is None:
+        return "no FFmpeg shared libraries to decode the dataset's videos (apt-get install ffmpeg; scripts/setup.sh does)"
+    return None
+
+
+needs_lerobot = pytest.mark.skipif(_lerobot_env_missing() is not None, reason=str(_lerobot_env_missing()))
+TASKS = ["close_jar", "push_buttons"]
+
+
+def _export_cfg(out_dir: Path):
+    return _compose(
+        f"export.tasks=[{','.join(TASKS)}]", "export.demos_per_task=2", "export.workers=1",
+        "simulator.image_size=64", f"export.out_dir={out_dir}", "progress=false",
+    )
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    from xicm.export.dataset_writer import read_dataset
+    from xicm.export.job import run_export
+
+    out_dir = tmp_path_factory.mktemp("export") / "agnostos_seen"
+    cfg = _export_cfg(out_dir)
+    report = run_export(cfg)
+    loaded = tmp_path_factory.mktemp("read") / "loaded.npz"
+    read_dataset(out_dir, cfg.export.repo_id, loaded, cfg.paths.cache)
+    return cfg, out_dir, report, dict(np.load(loaded)), report["staged"]
+
+
+@pytest.mark.slow
+@needs_lerobot
+def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported):
+    import json
+
+    cfg, out_dir, report, data, staged = exported
+    assert report["counts"] == {"close_jar": (2, 2), "push_buttons": (2, 2)}
+    assert [(p.parent.parent.name, p.name) for p in staged] == [
+        ("close_jar", "e0000.npz"), ("close_jar", "e0001.npz"), ("push_buttons", "e0000.npz"), ("push_buttons", "e0001.npz")]
+    steps = [len(np.load(p)["action.ee_delta"]) for p in staged]
+    assert int(data["num_episodes"]) == 4 and int(data["num_frames"]) == sum(steps)
+    assert data["tasks"].tolist() == [str(np.load(p)["instruction"]) for p in staged]
+    features = json.loads(str(data["features"]))
+    expected = feats.features({"front": (64, 64), "wrist": (64, 64)}, "ee_delta", use_videos=True)
+    assert {k: features[k]["shape"] for k in expected} == {k: v["shape"] for k, v in expected.items()}
+    assert (out_dir / "meta" / "info.json").exists() and list((out_dir / "videos").rglob("*.mp4"))
+    first = 0
+    for n, path in enumerate(staged):
+        arrays = np.load(path)
+        rows = slice(first, first + steps[n])
+        for space in feats.ACTION_SPACES:
+            np.testing.assert_allclose(data[f"column.action.{space}"][rows], arrays[f"action.{space}"], atol=1e-6)
+        np.testing.assert_array_equal(data["column.action"][rows], data["column.action.ee_delta"][rows])
+        np.testing.assert_array_equal(data["column.key_action.ints"][rows], arrays["key_action.ints"])
+        for camera in ("front", "wrist"):  # the decoded video frame is the recorded picture, up to compression
+            diff = np.abs(data[f"images.{camera}"][n, 0].astype(int) - arrays[f"observation.images.{camera}"][0].astype(int))
+            assert diff.mean() < 8, (path, camera, diff.mean())
+        first += steps[n]
+
+
+@pytest.mark.slow
+@needs_lerobot
+def test_loaded_actions_replay_to_success_in_the_gymnasium_env_in_every_action_space(exported):
+    import gymnasium
+
+    from xicm.vla.registration import env_id, register_envs
+
+    register_envs()
+    cfg, _, _, data, staged = exported
+    episode_of = data["column.episode_index"].reshape(-1)
+    results = []
+    for space in feats.ACTION_SPACES:
+        for task in TASKS:
+            env = gymnasium.make(env_id(task), obs_mode="state", control_mode=space)
+            try:
+                for n, path in enumerate(staged):
+                    if path.parent.parent.name != task:
+                        continue
+                    _, info = env.reset(seed=int(cfg.export.seed), options={"episode": int(path.stem[1:])})
+                    assert info["instruction"] == data["tasks"][n]  # the dataset's task text is this scene's
+                    for action in data[f"column.action.{space}"][episode_of == n]:
+                        _, _, terminated, truncated, info = env.step(action)
+                        assert "error_kind" not in info, (space, path, info)
+                        if terminated or truncated:
+                            break
+                    results.append((space, task, path.stem, terminated and info["success"]))
+            finally:
+                env.close()
+    assert len(results) == 16 and all(ok for *_, ok in results), results
+
+
+@pytest.mark.slow
+@needs_lerobot
+def test_a_partial_export_resumes_recording_only_what_is_missing(exported, monkeypatch, tmp_path):
+    import shutil
+
+    from xicm.export import record
+    from xicm.export.dataset_writer import read_dataset
+    from xicm.export.job import run_export
+
+    cfg, out_dir, _, _, staged = exported
+    work = tmp_path / out_dir.name  # a copy of the export as a kill would leave it:
+    shutil.copytree(out_dir.with_name(f"{out_dir.name}.staging"), work.with_name(f"{work.name}.staging"))
+    lost = work.with_name(f"{work.name}.staging") / staged[-1].relative_to(out_dir.with_name(f"{out_dir.name}.staging"))
+    lost.unlink()  # the last episode never staged, no dataset yet, the writer's temp folder half-written
+    (work.with_name(f".{work.name}.tmp") / "meta").mkdir(parents=True)
+    recorded = []
+    real = record.record_episode
+    monkeypatch.setattr(record, "record_episode", lambda sim, task, *a: recorded.append(task) or real(sim, task, *a))
+    report = run_export(_export_cfg(work))
+    assert recorded == ["push_buttons"] and report["episodes"] == 4
+    assert not work.with_name(f".{work.name}.tmp").exists()
+    loaded = tmp_path / "loaded.npz"
+    read_dataset(work, cfg.export.repo_id, loaded, cfg.paths.cache)
+    assert int(np.load(loaded)["num_episodes"]) == 4
