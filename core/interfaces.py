@@ -140,6 +140,9 @@ class Policy(ABC):
     #: skips rendering a new observation between calls of `act` and passes the first one again.
     observes: bool = True
 
+    def on_episode(self, task: str, seed: int, episode: int) -> None:
+        """Called before `reset` with the episode's identity (a remote policy sends it to its server)."""
+
     def reset(self, task: str, obs: Observation, rng: np.random.Generator) -> None:
         """Start an episode of `task`; `rng` is the episode's own generator for random choices."""
 

@@ -29,6 +29,15 @@ class JointAction:
     gripper_open: bool
 
 
+@dataclass(frozen=True)
+class ControlStep:
+    """One control period of per-step control (`Simulator.step`): the action vector in the
+    simulator's control mode (simulator.control_mode; layouts in docs/DESIGN.md). A policy
+    returns one, or several as an action chunk."""
+
+    values: tuple[float, ...]
+
+
 @dataclass
 class CameraFrame:
     """One camera's picture. Extrinsics use the OpenCV convention (x right, y down, z forward)."""

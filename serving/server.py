@@ -78,10 +78,6 @@ class PolicyServer:
                 started.set()
             await self._stop.wait()
 
-    def serve_forever(self) -> None:
-        """Block serving until interrupted (Ctrl-C)."""
-        asyncio.run(self._serve(None))
-
     def start(self) -> PolicyServer:
         """Serve from a background thread; returns once the port is open."""
         started = threading.Event()
@@ -95,6 +91,11 @@ class PolicyServer:
         if not started.wait(timeout=30):
             raise RuntimeError(f"the policy server did not start on {self.host}:{self.port} within 30 s")
         return self
+
+    def wait(self) -> None:
+        """Block until the background server stops (Ctrl-C raises KeyboardInterrupt here)."""
+        while self._thread is not None and self._thread.is_alive():
+            self._thread.join(timeout=0.5)
 
     def stop(self) -> None:
         if self._loop is not None and self._stop is not None:

@@ -1,0 +1,88 @@
+"""Any policy the registry builds, answering openpi-style requests (what xicm-serve-policy serves).
+
+The server keeps its own simulator (the policy is built with one, as in an evaluation). When a
+request starts an episode ("xicm/episode" with call 0, or another task/seed/episode) the server
+resets that simulator to the same scene and resets the policy with the episode's own random
+stream, exactly as a local evaluation does. A policy that observes gets the client's whole
+Observation ("xicm/observation"); one that reads the true state instead (the scripted oracle)
+gets its own simulator, which the server then moves with the same actions the client executes,
+so both stay in the same state (the simulation is deterministic).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from xicm.core.build import Run
+from xicm.core.errors import EpisodeFailure
+from xicm.core.seeding import episode_rng
+from xicm.core.types import ControlStep
+from xicm.serving.actions import from_actions
+from xicm.serving.observation import observation_from_wire
+
+
+class ServedPolicy:
+    def __init__(self, run: Run, control_mode: str | None = None):
+        self.run = run
+        self.policy = run.policy
+        self.control_mode = control_mode
+        self.current: tuple[str, int, int] | None = None
+
+    def metadata(self) -> dict[str, Any]:
+        observes = bool(getattr(self.policy, "observes", True))
+        return {
+            "xicm": {
+                "policy": self.run.policy_name,
+                "observes": observes,
+                "observation": "full" if observes else "none",
+                "action_space": getattr(self.policy, "action_space", "key_pose"),
+            }
+        }
+
+    def infer(self, obs: dict) -> dict:
+        ep = obs.get("xicm/episode")
+        if not isinstance(ep, dict) or not {"task", "seed", "episode"} <= set(ep):
+            raise ValueError("this server serves an xicm policy: each request needs 'xicm/episode' with task, seed, episode and call")
+        key = (str(ep["task"]), int(ep["seed"]), int(ep["episode"]))
+        observation = observation_from_wire(obs["xicm/observation"]) if "xicm/observation" in obs else None
+        if key != self.current or int(ep.get("call", 0)) == 0:
+            self._start(key, observation)
+        elif observation is None:
+            observation = self._own_observation()
+        try:
+            actions = self.policy.act(observation if observation is not None else self.first_obs)
+        except EpisodeFailure as failure:
+            self.current = None
+            return {"actions": [], "xicm/failure": {"kind": failure.kind, "message": failure.message}, "xicm/record": self._record()}
+        space, chunk = from_actions(actions)
+        if space == "control":
+            space = self.control_mode
+        if not getattr(self.policy, "observes", True):
+            self._follow(actions)
+        return {"actions": chunk, "xicm/action_space": space, "xicm/record": self._record()}
+
+    def _start(self, key: tuple[str, int, int], observation) -> None:
+        task, seed, episode = key
+        self.first_obs = self.run.simulator.reset(task, seed, episode)
+        self.current = key
+        self.policy.on_episode(task, seed, episode)
+        self.policy.reset(task, observation if observation is not None else self.first_obs,
+                          episode_rng(seed, task, episode, stream="policy"))
+
+    def _own_observation(self):
+        return self.first_obs if not getattr(self.policy, "observes", True) else self.run.simulator.observe()
+
+    def _follow(self, actions) -> None:
+        """Move the server's simulator as the client will, so a state-reading policy stays in step."""
+        sim = self.run.simulator
+        for action in actions:
+            outcome = sim.step(action.values) if isinstance(action, ControlStep) else sim.execute(action)
+            if not outcome.ok or outcome.success:
+                break
+
+    def _record(self) -> dict:
+        try:
+            record = self.policy.record()
+        except Exception as exc:  # noqa: BLE001 - a record problem must not lose the actions
+            return {"extra": {"record_error": f"{type(exc).__name__}: {exc}"}}
+        return {k: v for k, v in record.items() if k != "transcript"}
