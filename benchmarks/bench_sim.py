@@ -43,7 +43,7 @@ def main() -> None:
     sim = registry.create_simulator({"name": "sapien", "image_size": args.image_size})
     t_create = time.perf_counter() - t0
     tasks = sim.task_names()
-    print(f"simulator created in {t_create:.2f} s (physics {sim.controller.physics_hz:.0f} Hz, control {sim.controller.control_hz:.0f} Hz)")
+    print(f"simulator created in {t_create:.2f} s (physics {sim.controller.physics_hz:.0f} Hz, frames {sim.controller.frame_hz:.0f} Hz)")
 
     bare = physics_rate(sim, args.seconds)  # no task loaded yet: robot + table
     print(f"physics, bare scene (robot + table): {bare:,.0f} steps/s ({bare / sim.controller.physics_hz:.1f}x real time)")
@@ -84,7 +84,7 @@ def main() -> None:
         print(
             f"demos, {task}: {args.demos / total:.2f} demos/s (reset {np.mean(t_reset) * 1000:.0f} ms, "
             f"demo {np.mean(t_demo) * 1000:.0f} ms, {frames / args.demos:.0f} frames = "
-            f"{frames / args.demos / sim.controller.control_hz:.1f} s simulated, {ok}/{args.demos} ok)"
+            f"{frames / args.demos / sim.controller.frame_hz:.1f} s simulated, {ok}/{args.demos} ok)"
         )
     sim.close()
 

@@ -27,12 +27,15 @@ def check_run(cfg: DictConfig, registry: Registry, tasks: list[str]) -> None:
     """Raise UnknownPluginError / ConfigError naming what exists or is allowed, before anything is built.
 
     The config's own keys are checked against xicm.core.config_schema, the simulator's and the
-    policy's options against their plugins' schemas. A policy may register a
+    policy's options against their plugins' schemas. A simulator may register a `check(options)`
+    callable for rules between its options. A policy may register a
     `check(cfg, registry)` callable beside its factory to check the groups and files it will
     build from (X-ICM: its parts and its pool).
     """
     check_config(cfg, XicmConfig)
-    registry.check_options("simulator", group_options(cfg, "simulator"))
+    simulator = registry.check_options("simulator", group_options(cfg, "simulator"))
+    if simulator.extra.get("check") is not None:  # rules between options, e.g. rates that must divide
+        simulator.extra["check"](group_options(cfg, "simulator"))
     policy = registry.check_options("policy", group_options(cfg, "policy"))
     check_tasks(registry, tasks, cfg.simulator.name)
     check = policy.extra.get("check")

@@ -50,6 +50,16 @@ class Simulator(ABC):
     def execute(self, action: KeyAction | JointAction) -> StepOutcome:
         """Move to the key pose (or joint target), then set the gripper; never raises for a bad pose."""
 
+    def control_modes(self) -> tuple[str, ...]:
+        """The action spaces `step` accepts (the simulator's control_mode option picks one)."""
+        raise NotImplementedError(f"{type(self).__name__} has no per-step control (control_modes)")
+
+    def step(self, action: Sequence[float]) -> StepOutcome:
+        """Advance one control period towards `action` (a vector in the chosen control mode);
+        success is checked after it. A bad or unreachable action is a failed StepOutcome with
+        its reason (error_kind "bad_action" / "unreachable"), never an exception."""
+        raise NotImplementedError(f"{type(self).__name__} has no per-step control (step)")
+
     @abstractmethod
     def is_success(self) -> bool:
         """Whether the current state satisfies the task's success condition."""
@@ -60,9 +70,9 @@ class Simulator(ABC):
         raise NotImplementedError(f"{type(self).__name__} has no scripted solutions")
 
     def set_frame_callback(self, callback: Callable[[], None] | None) -> bool:
-        """Optional: call `callback()` after every control frame stepped while executing actions
+        """Optional: call `callback()` after every frame stepped while executing actions
         (None removes it; a reset removes it too). Returns False when the simulator cannot: a
-        rollout video then gets one picture per key action instead of one per control frame."""
+        rollout video then gets one picture per key action instead of one per frame."""
         return False
 
     @abstractmethod

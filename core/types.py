@@ -59,6 +59,9 @@ class Observation:
     object_names: list[str]  # the task objects to describe in the prompt, in prompt order
     gripper: KeyAction  # current end-effector pose and gripper state
     joint_positions: np.ndarray
+    #: joint_positions (7), gripper_width (1, m), tcp_pose (7: xyz + wxyz, robot base frame),
+    #: gripper_open (1: the commanded state, 1.0 / 0.0); empty where a simulator has none
+    proprio: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -69,16 +72,20 @@ class TaskInfo:
     split: str
     instruction: str
     object_names: tuple[str, ...]
+    #: default budget of per-step policies (control steps), None where the task declares none
+    max_control_steps: int | None = None
 
     @classmethod
     def of(cls, name: str, task: Any) -> TaskInfo:
-        """The facts of a registered task class: its attributes split, instruction and object_names."""
+        """The facts of a registered task class: its attributes split, instruction and object_names
+        (and max_control_steps if it has one)."""
         missing = [a for a in ("split", "instruction", "object_names") if not hasattr(task, a)]
         if missing:
             from xicm.core.errors import ConfigError
 
             raise ConfigError(f"task '{name}' has no {', '.join(missing)} (a task class declares split, instruction and object_names)")
-        return cls(name, task.split, task.instruction, tuple(task.object_names))
+        budget = getattr(task, "max_control_steps", None)
+        return cls(name, task.split, task.instruction, tuple(task.object_names), None if budget is None else int(budget))
 
 
 @dataclass
@@ -93,13 +100,43 @@ class StepOutcome:
 
 @dataclass
 class Trajectory:
-    """A recorded scripted run: one row per control frame (see DESIGN.md, frame rate)."""
+    """A recorded scripted run: one row per frame (see DESIGN.md, frame rate)."""
 
     joint_positions: np.ndarray  # (T, n_joints)
     joint_velocities: np.ndarray  # (T, n_joints)
     gripper_open: np.ndarray  # (T,) bool
     ee_poses: np.ndarray  # (T, 7) position xyz + quaternion wxyz
     success: bool
+
+
+@dataclass
+class ControlRecording:
+    """A scripted demonstration recorded at the control rate (Simulator.record_scripted).
+
+    Index t runs over the T + 1 states: the reset state, then the state after each of the T
+    control steps. The targets at index t are the commands in force at the end of control
+    period t - 1 (index 0: the hold target at reset); action t of any control mode leads from
+    state t to the targets at t + 1 (plugins' control_modes.actions).
+    """
+
+    task: str
+    seed: int
+    episode: int
+    instruction: str
+    control_hz: float
+    proprio: dict[str, np.ndarray]  # name -> (T + 1, d), the layout of Observation.proprio
+    joint_targets: np.ndarray  # (T + 1, 7) commanded arm joint targets (rad)
+    tcp_targets: np.ndarray  # (T + 1, 7) TCP pose of the joint targets (forward kinematics), base frame
+    gripper_commands: np.ndarray  # (T + 1,) 1.0 open / 0.0 closed
+    rgb: dict[str, np.ndarray] | None  # camera -> (T + 1, H, W, 3) uint8, None when not rendered
+    key_action_steps: list[int]  # per key action: the control step (0-based) during which it ended
+    key_actions: list[KeyAction]
+    success: bool
+    error: str | None = None  # why the demonstrator stopped early, if it did
+
+    @property
+    def steps(self) -> int:
+        return len(self.joint_targets) - 1
 
 
 @dataclass

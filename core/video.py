@@ -1,6 +1,6 @@
 """Rollout videos: one MP4 per episode from one camera, named after the episode's outcome.
 
-The simulator calls back after every control frame it steps (`Simulator.set_frame_callback`);
+The simulator calls back after every frame it steps (`Simulator.set_frame_callback`);
 the recorder renders its camera on every `every`-th frame and streams the picture to an ffmpeg
 process (imageio + imageio-ffmpeg), so memory stays flat however long the episode. A simulator
 without that callback gets one picture per key action instead. The file is written under a
@@ -35,7 +35,7 @@ class VideoSettings:
     run_dir: Path
     camera: str = "front"
     fps: int = 20
-    every: int = 1  # render every k-th control frame
+    every: int = 1  # render every k-th frame
 
     @classmethod
     def from_config(cls, cfg: Any, run_dir: Path) -> VideoSettings | None:
@@ -63,9 +63,9 @@ class EpisodeVideo:
         self.seconds_in_callbacks = 0.0  # the part spent inside Simulator.execute
         self._writer = None
         self._simulator: Simulator | None = None
-        self._callbacks = False  # the simulator calls us per control frame
+        self._callbacks = False  # the simulator calls us per frame
         self._control_frames = 0
-        self._captured_last = True  # the state after the last control frame is in the video
+        self._captured_last = True  # the state after the last frame is in the video
         self._final: Path | None = None
 
     # --- episode hooks -------------------------------------------------------------------------

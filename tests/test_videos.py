@@ -21,7 +21,7 @@ from xicm.core.types import Demo, KeyAction
 from xicm.core.video import VideoSettings
 from xicm.plugins.policies.oracle import OraclePolicy
 
-TASK = "push_buttons"  # the oracle solves it in ~8 key actions, ~90 control frames
+TASK = "push_buttons"  # the oracle solves it in ~8 key actions, ~90 frames
 
 
 def _frames(path: Path) -> int:
@@ -38,7 +38,7 @@ def test_oracle_episode_writes_a_pass_video_with_every_kth_control_frame(sim, tm
     assert result.success and result.error_kind is None
     path = tmp_path / "videos" / TASK / "s0-e0000-PASS.mp4"
     assert result.extra["video"] == "videos/push_buttons/s0-e0000-PASS.mp4" and path.is_file()
-    # the reset picture, every 7th control frame, and the last frame if it was not a 7th one
+    # the reset picture, every 7th frame, and the last frame if it was not a 7th one
     expected = 1 + math.ceil(sim.controller.frames / 7)
     assert sim.controller.frames % 7 and result.extra["video_frames"] == expected == _frames(path)
     reader = imageio.get_reader(str(path))

@@ -6,7 +6,7 @@ factory and by a task's module, which is loaded on the task's first use (tasks.L
 
 from xicm.core.hookspecs import hookimpl
 
-from .options import SapienOptions
+from .options import SapienOptions, check_rates
 from .tasks import builtin_tasks
 
 
@@ -19,7 +19,7 @@ def create_simulator(**options):
 
 @hookimpl
 def register_simulators(register):
-    register("sapien", create_simulator, options=SapienOptions)
+    register("sapien", create_simulator, options=SapienOptions, check=check_rates)
 
 
 @hookimpl

@@ -4,7 +4,7 @@ One `move_to` call plans a path from the current TCP pose to the target (IK per 
 waypoint, seeded from the previous waypoint so the joints stay continuous), falls back to a
 joint-space line when the Cartesian line leaves the arm's reach, then follows the path with a
 trapezoidal speed profile. Drive targets are interpolated at the physics rate; the state is
-recorded (when a recorder is attached) once per control frame. The arm always ends at rest.
+recorded (when a recorder is attached) once per frame. The arm always ends at rest.
 """
 
 from __future__ import annotations
@@ -33,13 +33,13 @@ class MotionLimits:
     waypoint_angle: float = math.radians(4.0)
     max_joint_jump: float = 0.35  # rad between neighbouring waypoints before the line counts as broken
     rest_speed: float = 0.05  # rad/s: the arm counts as at rest below this on every joint
-    settle_frames: int = 40  # at most this many control frames to come to rest
-    gripper_frames: int = 12  # at most this many control frames to open/close
+    settle_frames: int = 40  # at most this many frames to come to rest
+    gripper_frames: int = 12  # at most this many frames to open/close
 
 
 @dataclass
 class Frame:
-    """State of one control frame."""
+    """State of one frame."""
 
     qpos: np.ndarray
     qvel: np.ndarray
@@ -74,23 +74,23 @@ class Controller:
         scene: sapien.Scene,
         robot: Panda,
         physics_hz: float,
-        control_hz: float,
+        frame_hz: float,
         limits: MotionLimits | None = None,
     ):
         self.scene = scene
         self.robot = robot
         self.physics_hz = float(physics_hz)
-        self.control_hz = float(control_hz)
-        self.substeps = max(1, int(round(physics_hz / control_hz)))
+        self.frame_hz = float(frame_hz)
+        self.substeps = max(1, int(round(physics_hz / frame_hz)))
         self.dt = 1.0 / self.physics_hz
         self.limits = limits or MotionLimits()
-        #: called once per control frame (task event tracking, e.g. which button went down)
+        #: called once per frame (task event tracking, e.g. which button went down)
         self.on_frame: Callable[[], None] | None = None
-        #: when a list, one Frame is appended per control frame
+        #: when a list, one Frame is appended per frame
         self.recorder: list[Frame] | None = None
-        self.frames = 0  # control frames stepped since the last reset
+        self.frames = 0  # frames stepped since the last reset
         self._hold_q = robot.arm_qpos()
-        #: joint velocity at the end of the last control frame, as the finite difference over
+        #: joint velocity at the end of the last frame, as the finite difference over
         #: its last physics step: unlike the solver's velocities it reads 0 for an arm held
         #: still against an obstacle (contact jitter), which is what the key-frame rule needs
         self.frame_qvel = np.zeros(ARM_JOINTS)
@@ -222,7 +222,7 @@ class Controller:
                 return tc - 0.5 * acc * r * r, acc * r
             return 0.5 * acc * tr * tr + peak * (t - tr), peak
 
-        frame_time = 1.0 / self.control_hz
+        frame_time = 1.0 / self.frame_hz
         n_frames = max(1, int(math.ceil(total / frame_time - 1e-9)))
         t = 0.0
         for _ in range(n_frames):
@@ -280,6 +280,23 @@ class Controller:
         start, end = self.robot.tcp_pose_at(q0), self.robot.tcp_pose_at(q1)
         length = float(np.linalg.norm(np.asarray(end.p) - np.asarray(start.p)))
         self.follow(np.linspace(q0, q1, n + 1), length, quat_angle(np.asarray(start.q), np.asarray(end.q)))
+
+    def drive(self, q1: np.ndarray, open_: bool, frames: int) -> None:
+        """One control step: command the gripper, then move the arm's drive target linearly from
+        the last target to q1 over `frames` frames (velocity target = the line's slope), stepping
+        every frame through the frame path (task hooks, recorder, callbacks)."""
+        if open_ != self.robot.gripper_open:
+            self.robot.set_gripper_target(open_)
+        q0 = self._hold_q.copy()
+        n = frames * self.substeps
+        slope = (q1 - q0) / (n * self.dt)
+        for frame in range(frames):
+            for sub in range(self.substeps):
+                i = frame * self.substeps + sub + 1
+                self.robot.set_arm_target(q0 + (q1 - q0) * (i / n), slope)
+                self._physics_step(sub == self.substeps - 1)
+            self._end_frame()
+        self._hold_q = np.array(q1, dtype=float)
 
     def set_gripper(self, open_: bool) -> None:
         """Open or close the fingers and wait until they stop (fully open/closed, or holding)."""

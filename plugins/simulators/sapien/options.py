@@ -3,9 +3,11 @@
 from dataclasses import dataclass, field
 from typing import Any, List
 
-from xicm.core.schema import above, rule
+from xicm.core.schema import above, one_of, rule
 
 CAMERA_NAMES = ("front", "left_shoulder", "right_shoulder", "overhead", "wrist")
+#: per-step action spaces of `step(action)` (control_modes.py has their layouts)
+CONTROL_MODES = ("ee_delta", "ee_pose", "joint_pos", "joint_delta")
 
 #: Vulkan guarantees 2D images up to 4096 pixels a side on every device (maxImageDimension2D);
 #: measured on lavapipe: one 4096 camera renders (79 s, 6.2 GB), 16385 fails ("cannot create image").
@@ -35,8 +37,30 @@ class SapienOptions:
         metadata=rule(_cameras, f"a non-empty list of distinct names from {', '.join(CAMERA_NAMES)}"),
     )
     physics_hz: float = field(default=200.0, metadata=above(0))
-    control_hz: float = field(default=20.0, metadata=above(0))
+    #: frames per second: key moves are followed, recorded and watched by tasks per frame (RLBench: 20 Hz)
+    frame_hz: float = field(default=20.0, metadata=above(0))
+    #: control steps per second of step(action); frame_hz must be a multiple of it
+    control_hz: float = field(default=10.0, metadata=above(0))
+    control_mode: str = field(default="ee_delta", metadata=one_of(*CONTROL_MODES))
     sample_variations: bool = True
     render: bool = True
     lin_speed: float = field(default=0.35, metadata=above(0))  # m/s of the gripper along a straight line
     joint_speed: float = field(default=1.3, metadata=above(0))  # rad/s
+
+
+def frames_per_step(frame_hz: float, control_hz: float) -> int:
+    """Frames in one control step; ConfigError when frame_hz is not a whole multiple of control_hz."""
+    ratio = float(frame_hz) / float(control_hz)
+    if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-9:
+        from xicm.core.errors import ConfigError
+
+        raise ConfigError(
+            f"simulator.frame_hz ({frame_hz:g}) must be a whole multiple of simulator.control_hz ({control_hz:g}), "
+            "e.g. frame_hz 20 with control_hz 10, 20 or 5"
+        )
+    return int(round(ratio))
+
+
+def check_rates(options: dict) -> None:
+    """The simulator group's rule between options (core.build.check_run calls it before building)."""
+    frames_per_step(options.get("frame_hz", 20.0), options.get("control_hz", 10.0))

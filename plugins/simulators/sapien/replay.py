@@ -1,4 +1,5 @@
-"""Replaying a demonstration's key actions (read with xicm.core.encoding's key-frame rule).
+"""Replaying a demonstration's key actions (read with xicm.core.encoding's key-frame rule),
+and a control-rate recording's per-step actions (`replay_steps`).
 
 X-ICM only works if the key actions of a scripted demonstration, quantised to the 1 cm /
 5 degree text grid, solve the task again when executed one by one; the tests and
@@ -8,7 +9,9 @@ benchmarks/scripted_success.py check that with `replay_demo`.
 from __future__ import annotations
 
 from xicm.core import encoding
-from xicm.core.types import KeyAction, Trajectory
+from xicm.core.types import ControlRecording, KeyAction, Trajectory
+
+from .control_modes import actions as recording_actions
 
 
 def demo_key_actions(traj: Trajectory, workspace=None) -> list[KeyAction]:
@@ -41,3 +44,18 @@ def replay_demo(sim, task: str, seed: int, episode: int, quantised: bool = True)
     actions = demo_key_actions(traj, sim.workspace if quantised else None)
     ok, _ = replay(sim, task, seed, episode, actions)
     return bool(traj.success), ok, len(actions)
+
+
+def replay_steps(sim, recording: ControlRecording, mode: str) -> tuple[bool, str | None]:
+    """Reset the recording's episode (physics only) and step its actions in `mode` until success.
+
+    Returns (success, error message of the step that failed or None)."""
+    sim.control_mode = mode
+    sim.reset_state(recording.task, recording.seed, recording.episode)
+    for action in recording_actions(recording, mode):
+        outcome = sim.step(action)
+        if not outcome.ok:
+            return False, outcome.error_message
+        if outcome.success:
+            return True, None
+    return sim.is_success(), None

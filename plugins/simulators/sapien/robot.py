@@ -89,8 +89,15 @@ class Panda:
     def tcp_pose(self) -> sapien.Pose:
         return self.tcp.entity_pose
 
+    def in_base(self, pose: sapien.Pose) -> np.ndarray:
+        """A world pose as xyz + wxyz (w >= 0) in the robot base frame."""
+        local = self.base_pose.inv() * pose
+        q = np.asarray(local.q, dtype=np.float64)
+        return np.concatenate([np.asarray(local.p, dtype=np.float64), -q if q[0] < 0 else q])
+
     # --- commands --------------------------------------------------------------------------
     def set_arm_target(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
+        self.arm_target = np.array(q[:ARM_JOINTS], dtype=float)  # the last commanded target
         for i, joint in enumerate(self.joints[:ARM_JOINTS]):
             joint.set_drive_target(float(q[i]))
             joint.set_drive_velocity_target(0.0 if qd is None else float(qd[i]))

@@ -9,10 +9,20 @@ import sapien
 
 from xicm.core.interfaces import Simulator
 from xicm.core.seeding import episode_rng
-from xicm.core.types import JointAction, KeyAction, Observation, StepOutcome, TaskInfo, Trajectory
+from xicm.core.types import (
+    ControlRecording,
+    JointAction,
+    KeyAction,
+    Observation,
+    StepOutcome,
+    TaskInfo,
+    Trajectory,
+)
 
+from . import control_modes
 from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
+from .options import CONTROL_MODES, frames_per_step
 from .objects import ObjectSet
 from .scene import TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
@@ -25,7 +35,11 @@ class SapienSimulator(Simulator):
         image_size: camera resolution (int for square, or [height, width]).
         cameras: names of the cameras to render (front, left_shoulder, right_shoulder, overhead, wrist).
         physics_hz: physics steps per second of simulated time.
-        control_hz: control / recording frame rate (RLBench uses 20 Hz).
+        frame_hz: frames per second: key moves are followed, recorded and watched by the task
+            per frame (RLBench uses 20 Hz).
+        control_hz: control steps per second of step(action) (frame_hz must be a multiple).
+        control_mode: the action space of step(action): ee_delta, ee_pose, joint_pos, joint_delta
+            (layouts in control_modes.py).
         sample_variations: pick a random variation per episode for tasks that have several
             (False: always variation 0, what the unseen tasks are evaluated on).
         render: False builds a physics-only simulator (observe() is then unavailable).
@@ -41,7 +55,9 @@ class SapienSimulator(Simulator):
         image_size: int | list[int] = 128,
         cameras=CAMERA_NAMES,
         physics_hz: float = 200.0,
-        control_hz: float = 20.0,
+        frame_hz: float = 20.0,
+        control_hz: float = 10.0,
+        control_mode: str = "ee_delta",
         sample_variations: bool = True,
         render: bool = True,
         lin_speed: float = 0.35,
@@ -59,9 +75,12 @@ class SapienSimulator(Simulator):
             self.world.scene,
             self.robot,
             physics_hz,
-            control_hz,
+            frame_hz,
             MotionLimits(lin_speed=lin_speed, joint_speed=joint_speed),
         )
+        self.frames_per_step = frames_per_step(frame_hz, control_hz)
+        self.control_hz = float(control_hz)
+        self.control_mode = control_modes.check_mode(str(control_mode))
         self.sample_variations = bool(sample_variations)
         self.tasks = dict(tasks)
         self.task = None
@@ -128,7 +147,18 @@ class SapienSimulator(Simulator):
             object_names=self.object_names(),
             gripper=self.gripper_action(),
             joint_positions=self.robot.qpos.copy(),
+            proprio=self.proprio(),
         )
+
+    def proprio(self) -> dict[str, np.ndarray]:
+        """joint_positions (7), gripper_width (1, m), tcp_pose (7, base frame), gripper_open (1)."""
+        self._require_task()
+        return {
+            "joint_positions": self.robot.arm_qpos(),
+            "gripper_width": np.array([self.robot.finger_width()]),
+            "tcp_pose": self.robot.in_base(self.robot.tcp_pose()),
+            "gripper_open": np.array([1.0 if self.robot.gripper_open else 0.0]),
+        }
 
     def object_positions(self) -> dict[str, tuple[float, float, float]]:
         """True world centre of every named object (mean of its links' bounding-box centres)."""
@@ -196,8 +226,106 @@ class SapienSimulator(Simulator):
         self.controller.set_gripper(bool(action.gripper_open))
         return StepOutcome(ok=True, success=self.is_success())
 
+    # --- per-step control -------------------------------------------------------------------
+    def control_modes(self) -> tuple[str, ...]:
+        return CONTROL_MODES
+
+    def step(self, action) -> StepOutcome:
+        """One control period (frame_hz / control_hz frames) towards `action` in control_mode."""
+        try:
+            self._require_task()
+            values, problem = control_modes.parse(self.control_mode, action)
+            if problem is not None:
+                return StepOutcome(False, self.is_success(), error_kind="bad_action", error_message=problem)
+            target, problem = self._arm_target(values)
+            if problem is not None:
+                return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=problem)
+            self.controller.drive(target, control_modes.gripper_open(values), self.frames_per_step)
+            return StepOutcome(ok=True, success=self.is_success())
+        except Exception as exc:  # noqa: BLE001 - a simulator failure must not crash the run
+            return StepOutcome(False, False, error_kind="sim_error", error_message=f"{type(exc).__name__}: {exc}")
+
+    def _arm_target(self, values: np.ndarray) -> tuple[np.ndarray | None, str | None]:
+        """The arm joint target of an action, or None and why it cannot be reached."""
+        mode = self.control_mode
+        if mode in ("joint_pos", "joint_delta"):
+            q = control_modes.joint_target(mode, values, self.robot.arm_qpos())
+        else:
+            try:
+                pose = control_modes.target_pose(mode, values, self.robot.in_base(self.robot.tcp_pose()))
+            except ValueError as exc:
+                return None, str(exc)
+            world = self.robot.base_pose * sapien.Pose(pose[:3], pose[3:])
+            # seeded from the commanded joints: the measured ones lag them while moving
+            q = self.robot.ik(world, self.controller._hold_q)
+            if q is None:
+                xyz = np.round(pose[:3], 3).tolist()
+                return None, f"no joint configuration within the Panda's limits puts the gripper at {xyz} (base frame)"
+        lo, hi = self.robot.qlimits[:, 0], self.robot.qlimits[:, 1]
+        outside = (q < lo - 1e-6) | (q > hi + 1e-6)
+        if np.any(outside):
+            bad = [int(j) + 1 for j in np.nonzero(outside)[0]]
+            return None, f"the {mode} action's joint target lies outside the Panda's limits at joint(s) {bad}"
+        return q, None
+
+    def record_scripted(self, cameras=None) -> ControlRecording:
+        """Run the scripted solution from the reset state, recording at the control rate: the
+        state and commanded targets every frames_per_step frames, RGB of `cameras` if given."""
+        self._require_task()
+        cams = None if cameras is None else [str(c) for c in cameras]
+        k = self.frames_per_step
+        rows: dict[str, list] = {"proprio": [], "joint": [], "grip": [], "rgb": []}
+
+        def capture() -> None:
+            rows["proprio"].append(self.proprio())
+            rows["joint"].append(self.robot.arm_target.copy())
+            rows["grip"].append(1.0 if self.robot.gripper_open else 0.0)
+            if cams is not None:
+                frames = self.world.render(cams)
+                rows["rgb"].append({c: frames[c].rgb for c in cams})
+
+        start = self.controller.frames
+
+        def on_frame() -> None:
+            if (self.controller.frames - start) % k == 0:
+                capture()
+
+        capture()
+        self.set_frame_callback(on_frame)
+        key_actions, key_steps, error = [], [], None
+        try:
+            for action in self.task.demonstration():
+                outcome = self.execute(action)
+                if not outcome.ok:
+                    error = outcome.error_message
+                    break
+                key_actions.append(action)
+                key_steps.append(max(0, -(-(self.controller.frames - start) // k) - 1))
+            while (self.controller.frames - start) % k:  # complete the last control period
+                self.controller.step_frame()
+        finally:
+            self.set_frame_callback(None)
+        joints = np.array(rows["joint"])
+        tcp = np.array([self.robot.in_base(self.robot.tcp_pose_at(q)) for q in joints])
+        return ControlRecording(
+            task=self.task_name,
+            seed=self.seed,
+            episode=self.episode,
+            instruction=self.task.episode_instruction,
+            control_hz=self.control_hz,
+            proprio={n: np.array([p[n] for p in rows["proprio"]]) for n in rows["proprio"][0]},
+            joint_targets=joints,
+            tcp_targets=tcp,
+            gripper_commands=np.array(rows["grip"]),
+            rgb=None if cams is None else {c: np.array([r[c] for r in rows["rgb"]]) for c in cams},
+            key_action_steps=key_steps,
+            key_actions=key_actions,
+            success=error is None and self.is_success(),
+            error=error,
+        )
+
     def set_frame_callback(self, callback) -> bool:
-        """Call `callback()` after every control frame (after the task's own frame hook); for
+        """Call `callback()` after every frame (after the task's own frame hook); for
         rollout videos. None, or the next reset, removes it."""
         self._require_task()
         task_hook = self.task.on_frame

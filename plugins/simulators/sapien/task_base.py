@@ -1,7 +1,7 @@
 """The base class of SAPIEN tasks.
 
 A task builds its objects (`load`), samples an episode from a seeded generator (`initialise`),
-says whether it is solved (`evaluate`), may watch every control frame (`on_frame`, e.g. for
+says whether it is solved (`evaluate`), may watch every frame (`on_frame`, e.g. for
 "pressed in order" conditions) and yields the key actions of its scripted demonstrator
 (`demonstration`), computed from the true object state and executed by the same controller
 that executes the agent's actions.
@@ -82,7 +82,7 @@ class Task(ABC):
         """Whether the task is solved in the current state."""
 
     def on_frame(self) -> None:
-        """Called after every control frame (override to track events)."""
+        """Called after every frame (override to track events)."""
 
     @abstractmethod
     def demonstration(self) -> Iterator[KeyAction]:

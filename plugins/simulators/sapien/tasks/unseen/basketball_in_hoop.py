@@ -12,7 +12,7 @@ Randomisations:
     - ball centre x in [0.02, 0.14] m, y in [-0.20, 0.20] m.
 
 Success conditions:
-    The ball has passed down through the ring: between two control frames its centre went from
+    The ball has passed down through the ring: between two frames its centre went from
     above the ring's plane to below it, crossing the plane inside the ring's opening.
 """
 

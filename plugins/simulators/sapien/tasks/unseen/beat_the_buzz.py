@@ -15,7 +15,7 @@ Randomisations:
 
 Success conditions:
     The wand's ring is over the end rest (around the wire), the wand never touched the wire
-    during the episode (any touch is a failure for good, watched every control frame), AND
+    during the episode (any touch is a failure for good, watched every frame), AND
     the gripper holds nothing.
 """
 
