@@ -90,7 +90,7 @@ def test_the_observation_is_mapped_to_the_servers_keys(sim):
     assert obs["observation/image"].shape == (64, 64, 3) and obs["observation/image"].dtype == np.uint8
     assert obs["observation/wrist_image"].shape == (64, 64, 3)
     assert obs["observation/state"].shape == (8,) and obs["observation/state"].dtype == np.float32
-    assert obs["prompt"] == sim.task_info(TASK).instruction
+    assert obs["prompt"] == sim.observe(["front"]).instruction  # the episode's instruction (its variation)
     assert obs["xicm/episode"] == {"task": TASK, "seed": 0, "episode": 0, "call": 0}
 
 
