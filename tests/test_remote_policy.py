@@ -152,3 +152,23 @@ def test_eval_against_xicm_serve_policy_and_against_nothing(tmp_path):
                 for r in map(json.loads, (tmp_path / run / "episodes.jsonl").read_text().splitlines())]
 
     assert rows("served") == rows("local") and all(r["success"] for r in rows("local"))
+
+
+def test_a_whole_observation_survives_the_wire(sim):
+    from xicm.serving.observation import observation_from_wire, observation_to_wire
+    from xicm.serving.wire import pack, unpack
+
+    obs = sim.reset(TASK, 0, 0)
+    back = observation_from_wire(unpack(pack(observation_to_wire(obs))))
+    assert (back.instruction, back.object_names, back.segment_names, back.gripper) == (
+        obs.instruction, obs.object_names, obs.segment_names, obs.gripper)
+    assert set(back.cameras) == set(obs.cameras)
+    for name, frame in obs.cameras.items():
+        for field in ("rgb", "depth", "segmentation", "intrinsic", "cam_to_world"):
+            mine, theirs = getattr(frame, field), getattr(back.cameras[name], field)
+            if mine is None:
+                assert theirs is None
+            else:
+                assert theirs.dtype == mine.dtype and np.array_equal(theirs, mine), (name, field)
+    assert set(back.proprio) == set(obs.proprio) and all(np.array_equal(back.proprio[k], obs.proprio[k]) for k in obs.proprio)
+    np.testing.assert_array_equal(back.joint_positions, obs.joint_positions)
