@@ -56,7 +56,7 @@ def observation_to_wire(obs: Observation) -> dict[str, Any]:
     return {
         "instruction": obs.instruction,
         "cameras": cameras,
-        "segment_names": {int(k): v for k, v in obs.segment_names.items()},
+        "segment_names": [[int(k), v] for k, v in obs.segment_names.items()],  # msgpack maps take string keys
         "object_names": list(obs.object_names),
         "gripper": {"position": list(g.position), "quat_wxyz": list(g.quat_wxyz), "gripper_open": bool(g.gripper_open)},
         "joint_positions": np.asarray(obs.joint_positions),
@@ -71,7 +71,7 @@ def observation_from_wire(d: dict[str, Any]) -> Observation:
     return Observation(
         instruction=d["instruction"],
         cameras=cameras,
-        segment_names={int(k): v for k, v in d["segment_names"].items()},
+        segment_names={int(k): v for k, v in d["segment_names"]},
         object_names=list(d["object_names"]),
         gripper=KeyAction(tuple(g["position"]), tuple(g["quat_wxyz"]), bool(g["gripper_open"])),
         joint_positions=np.array(d["joint_positions"]),
