@@ -8,7 +8,7 @@ from omegaconf import DictConfig
 
 from xicm.core.build import build_run, check_run
 from xicm.core.plugins import get_registry
-from xicm.serving.served_policy import ServedPolicy
+from xicm.serving.served_policy import ServedPolicies
 from xicm.serving.server import PolicyServer
 
 
@@ -16,8 +16,7 @@ def serve_policy(cfg: DictConfig, ready=None) -> None:
     """Serve until interrupted; `ready(server)` is called once the port is open (tests, scripts)."""
     registry = get_registry()
     check_run(cfg, registry, list(cfg.benchmark.tasks))
-    run = build_run(cfg, registry)
-    served = ServedPolicy(run, control_mode=cfg.simulator.get("control_mode"))
+    served = ServedPolicies(lambda: build_run(cfg, registry), control_mode=cfg.simulator.get("control_mode"))
     server = PolicyServer(served, host=str(cfg.serve.host), port=int(cfg.serve.port), metadata=served.metadata())
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     try:
@@ -30,4 +29,4 @@ def serve_policy(cfg: DictConfig, ready=None) -> None:
         pass
     finally:
         server.stop()
-        run.close()
+        served.close()

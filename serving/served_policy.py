@@ -11,6 +11,8 @@ so both stay in the same state (the simulation is deterministic).
 
 from __future__ import annotations
 
+import threading
+from collections.abc import Callable
 from typing import Any
 
 from xicm.core.build import Run
@@ -86,3 +88,44 @@ class ServedPolicy:
         except Exception as exc:  # noqa: BLE001 - a record problem must not lose the actions
             return {"extra": {"record_error": f"{type(exc).__name__}: {exc}"}}
         return {k: v for k, v in record.items() if k != "transcript"}
+
+
+class ServedPolicies:
+    """One ServedPolicy per client connection (each evaluation worker runs its own episodes),
+    built on first need by `build` and reused after its connection ends. Simulators are not
+    thread-safe, so sessions act one at a time."""
+
+    def __init__(self, build: Callable[[], Run], control_mode: str | None = None):
+        self.build = build
+        self.control_mode = control_mode
+        self.lock = threading.Lock()
+        self.idle: list[ServedPolicy] = [ServedPolicy(build(), control_mode)]  # the first is built at start
+        self.all = list(self.idle)
+
+    def metadata(self) -> dict[str, Any]:
+        return self.all[0].metadata()
+
+    def open_session(self) -> _Session:
+        with self.lock:
+            if not self.idle:
+                self.idle.append(ServedPolicy(self.build(), self.control_mode))
+                self.all.append(self.idle[-1])
+            return _Session(self.idle.pop(), self.lock)
+
+    def close_session(self, session: _Session) -> None:
+        with self.lock:
+            session.served.current = None
+            self.idle.append(session.served)
+
+    def close(self) -> None:
+        for served in self.all:
+            served.run.close()
+
+
+class _Session:
+    def __init__(self, served: ServedPolicy, lock: threading.Lock):
+        self.served, self.lock = served, lock
+
+    def infer(self, obs: dict) -> dict:
+        with self.lock:
+            return self.served.infer(obs)

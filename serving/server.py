@@ -26,6 +26,15 @@ class InferencePolicy(Protocol):
     def infer(self, obs: dict) -> dict: ...
 
 
+class Sessions(Protocol):
+    """A policy with state per client (xicm policies run episodes): each connection gets its own
+    session from `open_session()`, handed back with `close_session(session)` when it ends."""
+
+    def open_session(self) -> InferencePolicy: ...
+
+    def close_session(self, session: InferencePolicy) -> None: ...
+
+
 def _health(connection: ServerConnection, request: Request) -> Response | None:
     if request.path == "/healthz":
         return connection.respond(http.HTTPStatus.OK, "OK\n")
@@ -33,9 +42,13 @@ def _health(connection: ServerConnection, request: Request) -> Response | None:
 
 
 class PolicyServer:
-    """Serves `policy` on host:port (port 0: the OS picks one; `port` holds it once started)."""
+    """Serves `policy` on host:port (port 0: the OS picks one; `port` holds it once started).
 
-    def __init__(self, policy: InferencePolicy, host: str = "127.0.0.1", port: int = 8000, metadata: dict | None = None):
+    A stateless policy (openpi's kind) is shared by all connections, one `infer` at a time; a
+    `Sessions` policy gives each connection its own session (which may share a lock of its own).
+    """
+
+    def __init__(self, policy: InferencePolicy | Sessions, host: str = "127.0.0.1", port: int = 8000, metadata: dict | None = None):
         self.policy = policy
         self.host = host
         self.port = int(port)
@@ -47,7 +60,17 @@ class PolicyServer:
 
     async def _handle(self, ws: ServerConnection) -> None:
         log.info("connection from %s", ws.remote_address)
-        await ws.send(pack(self.metadata))
+        await ws.send(pack(self.metadata))  # at once: a new session may take a while to build
+        if hasattr(self.policy, "open_session"):
+            session = await asyncio.to_thread(self.policy.open_session)
+            try:
+                await self._serve_connection(ws, session.infer)
+            finally:
+                self.policy.close_session(session)
+        else:
+            await self._serve_connection(ws, self._infer_shared)
+
+    async def _serve_connection(self, ws: ServerConnection, infer) -> None:
         while True:
             try:
                 frame = await ws.recv()
@@ -59,14 +82,14 @@ class PolicyServer:
                 obs = unpack(frame)
                 if not isinstance(obs, dict):
                     raise TypeError(f"the observation must be a map, got {type(obs).__name__}")
-                reply = await asyncio.to_thread(self._infer, obs)
+                reply = await asyncio.to_thread(infer, obs)
             except Exception as exc:  # noqa: BLE001 - the client gets the reason, the server goes on
                 log.warning("infer failed: %s: %s", type(exc).__name__, exc)
                 await ws.send(f"{type(exc).__name__}: {exc}")
                 continue
             await ws.send(pack(reply))
 
-    def _infer(self, obs: dict) -> Any:
+    def _infer_shared(self, obs: dict) -> Any:
         with self._lock:
             return self.policy.infer(obs)
 
