@@ -114,6 +114,7 @@ class XicmConfig:
     transcripts: bool = MISSING
     shards: Shards = field(default_factory=Shards)
     serve: Serve = field(default_factory=Serve)
+    envs: int = field(default=MISSING, metadata=at_least(1))
     progress: bool = MISSING
     run_name: str = MISSING
     policy: Group = MISSING

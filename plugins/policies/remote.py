@@ -85,6 +85,21 @@ class RemotePolicy(Policy):
         keep = o["chunk_steps_to_execute"]
         return actions if keep is None else actions[: int(keep)]
 
+    def act_batch(self, peers, observations) -> list:
+        """All environments' requests at once, each over its own connection (a batching server
+        sees them together)."""
+        from concurrent.futures import ThreadPoolExecutor
+
+        def one(pair):
+            peer, obs = pair
+            try:
+                return peer.act(obs)
+            except Exception as exc:  # noqa: BLE001 - that environment's episode records it
+                return exc
+
+        with ThreadPoolExecutor(max_workers=len(peers)) as pool:
+            return list(pool.map(one, zip(peers, observations)))
+
     def run_metadata(self) -> dict:
         return {"server": self.client.uri, "server_metadata": _jsonable(self.client.metadata), "action_space": self.space}
 
