@@ -17,7 +17,7 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from xicm.core.interfaces import Policy, PolicyContext
+from xicm.core.interfaces import Policy
 from xicm.core.types import EpisodeResult
 
 Key = tuple[str, int, int]
@@ -95,7 +95,7 @@ class BatchedEnvs:
     """Callable (task, seed, episode) -> EpisodeResult over `n` environment processes."""
 
     def __init__(self, cfg: DictConfig, n: int, episode_options: dict[str, Any], order: list[Key]):
-        from xicm.core.build import group_options
+        from xicm.core.build import build_policy
         from xicm.core.plugins import get_registry
         from xicm.core.sim_process import SimulatorProcess
 
@@ -112,10 +112,7 @@ class BatchedEnvs:
         self.error: BaseException | None = None
         try:
             self.simulators = [SimulatorProcess(config) for _ in range(n)]
-            policies = [
-                registry.create("policy", group_options(cfg, "policy"), context=PolicyContext(cfg, registry, sim))
-                for sim in self.simulators
-            ]
+            policies = [build_policy(cfg, registry, sim) for sim in self.simulators]
         except BaseException:
             self.close()
             raise

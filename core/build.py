@@ -98,9 +98,14 @@ def build_run(cfg: DictConfig, registry: Registry | None = None, *, with_policy:
     if not with_policy:
         return Run(simulator, None)
     try:
-        context = PolicyContext(cfg=cfg, registry=registry, simulator=simulator)
-        policy = registry.create("policy", group_options(cfg, "policy"), context=context)
+        policy = build_policy(cfg, registry, simulator)
     except BaseException:
         simulator.close()
         raise
     return Run(simulator, policy, str(cfg.policy.name))
+
+
+def build_policy(cfg: DictConfig, registry: Registry, simulator: Simulator) -> Policy:
+    """The configured policy, acting in `simulator` (a live one, or a proxy of one in a worker
+    process: core/sim_process.py)."""
+    return registry.create("policy", group_options(cfg, "policy"), context=PolicyContext(cfg=cfg, registry=registry, simulator=simulator))

@@ -81,6 +81,7 @@ class Shards:
 class Serve:
     host: str = MISSING
     port: int = field(default=MISSING, metadata=rule(lambda v: 0 <= v <= 65535, "a port number from 0 to 65535 (0: any free port)"))
+    sessions: int = field(default=MISSING, metadata=at_least(1))
 
 
 @dataclass

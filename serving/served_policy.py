@@ -92,40 +92,31 @@ class ServedPolicy:
 
 class ServedPolicies:
     """One ServedPolicy per client connection (each evaluation worker runs its own episodes),
-    built on first need by `build` and reused after its connection ends. Simulators are not
-    thread-safe, so sessions act one at a time."""
+    built on first need by `build` and reused after its connection ends. Each session's
+    simulator lives in its own worker process (core/sim_process.py), so sessions act in parallel."""
 
-    def __init__(self, build: Callable[[], Run], control_mode: str | None = None):
+    def __init__(self, build: Callable[[], Run], control_mode: str | None = None, sessions: int = 1):
         self.build = build
         self.control_mode = control_mode
-        self.lock = threading.Lock()
-        self.idle: list[ServedPolicy] = [ServedPolicy(build(), control_mode)]  # the first is built at start
+        self.lock = threading.Lock()  # guards the session lists only
+        self.idle: list[ServedPolicy] = [ServedPolicy(build(), control_mode) for _ in range(max(1, sessions))]  # built at start
         self.all = list(self.idle)
 
     def metadata(self) -> dict[str, Any]:
         return self.all[0].metadata()
 
-    def open_session(self) -> _Session:
+    def open_session(self) -> ServedPolicy:
         with self.lock:
             if not self.idle:
                 self.idle.append(ServedPolicy(self.build(), self.control_mode))
                 self.all.append(self.idle[-1])
-            return _Session(self.idle.pop(), self.lock)
+            return self.idle.pop()
 
-    def close_session(self, session: _Session) -> None:
+    def close_session(self, session: ServedPolicy) -> None:
         with self.lock:
-            session.served.current = None
-            self.idle.append(session.served)
+            session.current = None
+            self.idle.append(session)
 
     def close(self) -> None:
         for served in self.all:
             served.run.close()
-
-
-class _Session:
-    def __init__(self, served: ServedPolicy, lock: threading.Lock):
-        self.served, self.lock = served, lock
-
-    def infer(self, obs: dict) -> dict:
-        with self.lock:
-            return self.served.infer(obs)
