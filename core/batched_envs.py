@@ -112,6 +112,12 @@ class BatchedEnvs:
         self.error: BaseException | None = None
         try:
             self.simulators = [SimulatorProcess(config) for _ in range(n)]
+            if self.order:  # the first render of a process is slow: all at once, before any episode
+                warm = [threading.Thread(target=sim.reset, args=self.order[0]) for sim in self.simulators]
+                for t in warm:
+                    t.start()
+                for t in warm:
+                    t.join()
             policies = [build_policy(cfg, registry, sim) for sim in self.simulators]
         except BaseException:
             self.close()
