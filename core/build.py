@@ -33,6 +33,7 @@ def check_run(cfg: DictConfig, registry: Registry, tasks: list[str]) -> None:
     build from (X-ICM: its parts and its pool).
     """
     check_config(cfg, XicmConfig)
+    check_envs(cfg)
     simulator = registry.check_options("simulator", group_options(cfg, "simulator"))
     if simulator.extra.get("check") is not None:  # rules between options, e.g. rates that must divide
         simulator.extra["check"](group_options(cfg, "simulator"))
@@ -41,6 +42,16 @@ def check_run(cfg: DictConfig, registry: Registry, tasks: list[str]) -> None:
     check = policy.extra.get("check")
     if check is not None:
         check(cfg, registry)
+
+
+def check_envs(cfg: DictConfig) -> None:
+    """envs > 1 steps simulators in worker processes of this machine: not with Ray shards (which
+    spread episodes their own way) nor with videos (they record from the simulator's frames here)."""
+    envs = int(cfg.get("envs", 1) or 1)
+    if envs > 1 and cfg.shards.backend != "local":
+        raise ConfigError(f"envs={envs} needs shards.backend=local; Ray shards spread episodes their own way (use one or the other)")
+    if envs > 1 and cfg.video.enabled:
+        raise ConfigError(f"envs={envs} cannot record videos (video.enabled=true): record them with envs=1")
 
 
 def check_tasks(registry: Registry, tasks: list[str], simulator: str) -> None:
@@ -93,9 +104,14 @@ def build_run(cfg: DictConfig, registry: Registry | None = None, *, with_policy:
     if not with_policy:
         return Run(simulator, None)
     try:
-        context = PolicyContext(cfg=cfg, registry=registry, simulator=simulator)
-        policy = registry.create("policy", group_options(cfg, "policy"), context=context)
+        policy = build_policy(cfg, registry, simulator)
     except BaseException:
         simulator.close()
         raise
     return Run(simulator, policy, str(cfg.policy.name))
+
+
+def build_policy(cfg: DictConfig, registry: Registry, simulator: Simulator) -> Policy:
+    """The configured policy, acting in `simulator` (a live one, or a proxy of one in a worker
+    process: core/sim_process.py)."""
+    return registry.create("policy", group_options(cfg, "policy"), context=PolicyContext(cfg=cfg, registry=registry, simulator=simulator))

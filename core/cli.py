@@ -50,6 +50,22 @@ def export_main() -> None:
     _export_job()
 
 
+def serve_policy_main() -> None:
+    """xicm-serve-policy: serve the configured policy over openpi's websocket protocol until Ctrl-C."""
+    _check_command_line()
+    _serve_job()
+
+
+@hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="config")
+def _serve_job(cfg: DictConfig) -> None:
+    from xicm.serving.serve_job import serve_policy
+
+    try:
+        serve_policy(cfg)
+    except (XicmError, UnknownPluginError) as exc:
+        _fail(exc)
+
+
 @hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="config")
 def _eval_job(cfg: DictConfig) -> None:
     from hydra.core.hydra_config import HydraConfig

@@ -96,6 +96,13 @@ class Shards:
 
 
 @dataclass
+class Serve:
+    host: str = MISSING
+    port: int = field(default=MISSING, metadata=rule(lambda v: 0 <= v <= 65535, "a port number from 0 to 65535 (0: any free port)"))
+    sessions: int = field(default=MISSING, metadata=at_least(1))
+
+
+@dataclass
 class Benchmark:
     name: str = MISSING
     tasks: List[str] = field(default=MISSING, metadata=rule(_names, "a non-empty list of distinct task names"))
@@ -130,6 +137,8 @@ class XicmConfig:
     video: Video = field(default_factory=Video)
     transcripts: bool = MISSING
     shards: Shards = field(default_factory=Shards)
+    serve: Serve = field(default_factory=Serve)
+    envs: int = field(default=MISSING, metadata=at_least(1))
     progress: bool = MISSING
     run_name: str = MISSING
     policy: Group = MISSING

@@ -127,6 +127,7 @@ def _loop(
         raise EpisodeFailure("sim_error", f"reset failed: {type(exc).__name__}: {exc}") from exc
     if video is not None:
         video.start(simulator, obs)
+    policy.on_episode(result.task, result.seed, result.episode)
     policy.reset(result.task, obs, episode_rng(result.seed, result.task, result.episode, stream="policy"))
     while budgets.left():
         actions = policy.act(obs)

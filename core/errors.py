@@ -42,5 +42,10 @@ ERROR_KINDS = (
     "max_llm_calls",  # the LLM-call budget ran out without success
     "no_actions",  # the policy returned no action
     "solution_ended",  # the scripted solution (oracle policy) ran out without success
+    "server_unreachable",  # policy=remote: no policy server answered, or the link was lost
+    "server_timeout",  # policy=remote: the server did not answer within policy.timeout_s
+    "server_error",  # policy=remote: the server failed to answer the request
+    "bad_reply",  # policy=remote: the reply had no actions, a wrong shape, or NaN/inf
+    "bad_observation",  # policy=remote: the observation lacks what the mapping sends (a camera, a state field)
     "internal_error",  # an unexpected exception in our own code (a bug: please report it)
 )

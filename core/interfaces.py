@@ -153,12 +153,28 @@ class Policy(ABC):
     #: skips rendering a new observation between calls of `act` and passes the first one again.
     observes: bool = True
 
+    def on_episode(self, task: str, seed: int, episode: int) -> None:
+        """Called before `reset` with the episode's identity (a remote policy sends it to its server)."""
+
     def reset(self, task: str, obs: Observation, rng: np.random.Generator) -> None:
         """Start an episode of `task`; `rng` is the episode's own generator for random choices."""
 
     @abstractmethod
     def act(self, obs: Observation) -> list[KeyAction | JointAction]:
         """The next key actions or joint targets (at least one) for the current observation."""
+
+    def act_batch(self, peers: list[Policy], observations: list[Observation]) -> list:
+        """Act for several environments at once (xicm-eval envs=N): `peers[i]`, the instance of
+        this policy built for environment i (self is peers[0]), acts on `observations[i]`.
+        Returns, per environment, its actions or the exception its act raised. Default: one
+        after the other; a policy that can batch (a served model) overrides it."""
+        answers: list = []
+        for peer, obs in zip(peers, observations):
+            try:
+                answers.append(peer.act(obs))
+            except Exception as exc:  # noqa: BLE001 - that environment's episode records it
+                answers.append(exc)
+        return answers
 
     def run_metadata(self) -> dict:
         """Facts about the whole run for run.json (e.g. X-ICM: its pool and pool size); JSON-serialisable."""

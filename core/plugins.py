@@ -37,6 +37,7 @@ DEFAULT_PLUGINS = {
     "nearest_demo": "xicm.plugins.llms.nearest_demo",
     "xicm_policy": "xicm.plugins.policies.xicm",
     "oracle_policy": "xicm.plugins.policies.oracle",
+    "remote_policy": "xicm.plugins.policies.remote",
 }
 
 #: plugin family -> hook that fills it

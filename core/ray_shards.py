@@ -80,6 +80,16 @@ def episode_runner(
     to every `core.episode.run_episode` call, here or in the actors."""
     done = {(r["task"], r["seed"], r["episode"]) for r in RunDir(out_dir).read_episodes()}
     pending = [k for k in keys if k not in done]  # the order run_episodes will ask in
+    envs = int(cfg.get("envs", 1) or 1)
+    if envs > 1 and pending:
+        from xicm.core.batched_envs import BatchedEnvs
+
+        batched = BatchedEnvs(cfg, envs, episode_options, pending)
+        try:
+            yield EpisodeRunner(batched, batched.metadata)
+        finally:
+            batched.close()
+        return
     if settings.backend == "local" or not pending:  # nothing to run: do not start a cluster
         worker = EpisodeWorker(cfg, episode_options)
         try:

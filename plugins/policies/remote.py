@@ -1,0 +1,162 @@
+"""Policy `remote`: ask a policy server in openpi's websocket dialect for the actions.
+
+Each call of `act` sends the mapped observation (camera pictures under the server's image keys,
+the state vector, the instruction as the prompt, and "xicm/episode" with task, seed, episode and
+the call's index, which openpi servers ignore) and executes the first `chunk_steps_to_execute`
+rows of the returned chunk. A server that serves an xicm policy (xicm-serve-policy) says at
+connect what it needs and sends: its action space, whether it wants the whole Observation, and
+whether it observes at all (a served oracle does not: nothing is rendered between calls).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional
+
+from xicm.core.errors import ConfigError, EpisodeFailure
+from xicm.core.hookspecs import hookimpl
+from xicm.core.interfaces import Policy
+from xicm.core.schema import above, at_least, one_of
+
+SPACES = ("auto", "key_pose", "key_joints", "ee_delta", "ee_pose", "joint_pos", "joint_delta")
+
+
+class RemotePolicy(Policy):
+    def __init__(self, client, options: dict):
+        from xicm.serving.actions import KEY_SPACES
+
+        self.client = client
+        self.o = options
+        meta = client.metadata.get("xicm", {}) if isinstance(client.metadata.get("xicm"), dict) else {}
+        space = options["action_space"]
+        if space == "auto":
+            space = meta.get("action_space")
+            if space not in SPACES[1:]:
+                raise ConfigError(
+                    f"the server at {client.uri} does not say its action space; set policy.action_space to one of {', '.join(SPACES[1:])}"
+                )
+        self.space = space
+        self.per_step = space not in KEY_SPACES
+        self.full_observation = meta.get("observation") == "full"
+        self.observes = bool(meta.get("observes", True))
+        self.episode: dict = {}
+        self.calls = 0
+        self.last_record: dict = {}
+
+    def on_episode(self, task: str, seed: int, episode: int) -> None:
+        self.episode = {"task": task, "seed": int(seed), "episode": int(episode)}
+
+    def reset(self, task, obs, rng) -> None:
+        self.calls = 0
+        self.last_record = {}
+
+    def act(self, obs):
+        from xicm.serving.actions import to_actions
+        from xicm.serving.client import ServerError
+        from xicm.serving.observation import observation_to_wire, request_keys
+
+        o = self.o
+        try:
+            request = request_keys(obs, dict(o["images"]), o["image_size"], o["state_key"], list(o["state"]), o["prompt_key"])
+        except ValueError as exc:
+            raise EpisodeFailure("bad_observation", str(exc)) from exc
+        request["xicm/episode"] = {**self.episode, "call": self.calls}
+        if self.full_observation:
+            request["xicm/observation"] = observation_to_wire(obs)
+        self.calls += 1
+        try:
+            reply = self.client.infer(request)
+        except ServerError as exc:
+            raise EpisodeFailure(exc.kind, str(exc)) from exc
+        if not isinstance(reply, dict) or "actions" not in reply:
+            raise EpisodeFailure("bad_reply", f"the server's reply has no 'actions' (keys: {', '.join(map(str, reply)) if isinstance(reply, dict) else type(reply).__name__})")
+        if isinstance(reply.get("xicm/record"), dict):
+            self.last_record = reply["xicm/record"]
+        failure = reply.get("xicm/failure")
+        if isinstance(failure, dict):  # the served policy gave up (xicm-serve-policy)
+            raise EpisodeFailure(str(failure.get("kind", "server_error")), str(failure.get("message", "")))
+        space = reply.get("xicm/action_space", self.space)
+        if space not in SPACES[1:]:
+            raise EpisodeFailure("bad_reply", f"the server's action space {space!r} is not one of {', '.join(SPACES[1:])}")
+        try:
+            actions = to_actions(reply["actions"], space, o["gripper_open"], o["gripper_closed"])
+        except ValueError as exc:
+            raise EpisodeFailure("bad_reply", str(exc)) from exc
+        keep = o["chunk_steps_to_execute"]
+        return actions if keep is None else actions[: int(keep)]
+
+    def act_batch(self, peers, observations) -> list:
+        """All environments' requests at once, each over its own connection (a batching server
+        sees them together)."""
+        from concurrent.futures import ThreadPoolExecutor
+
+        def one(pair):
+            peer, obs = pair
+            try:
+                return peer.act(obs)
+            except Exception as exc:  # noqa: BLE001 - that environment's episode records it
+                return exc
+
+        with ThreadPoolExecutor(max_workers=len(peers)) as pool:
+            return list(pool.map(one, zip(peers, observations)))
+
+    def run_metadata(self) -> dict:
+        return {"server": self.client.uri, "server_metadata": _jsonable(self.client.metadata), "action_space": self.space}
+
+    def record(self) -> dict:
+        return dict(self.last_record)
+
+
+def _jsonable(value):
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    return value if isinstance(value, (str, int, float, bool)) or value is None else repr(value)
+
+
+@dataclass
+class RemotePolicyOptions:
+    host: str = "127.0.0.1"  # or a ws:// / wss:// URI
+    port: Optional[int] = field(default=8000, metadata=at_least(1))
+    timeout_s: float = field(default=30.0, metadata=above(0))  # per request, and for connecting
+    api_key: Optional[str] = None
+    action_space: str = field(default="auto", metadata=one_of(*SPACES))
+    chunk_steps_to_execute: Optional[int] = field(default=None, metadata=at_least(1))  # null: the whole chunk
+    images: Dict[str, str] = field(default_factory=lambda: {"front": "observation/image"})  # camera -> request key
+    image_size: Optional[int] = field(default=None, metadata=at_least(1))  # null: as rendered
+    state_key: Optional[str] = "observation/state"
+    state: List[str] = field(default_factory=lambda: ["joint_positions", "gripper_width"])  # proprio fields, in order
+    prompt_key: Optional[str] = "prompt"
+    gripper_open: float = 1.0  # the server's value for an open gripper
+    gripper_closed: float = 0.0  # ... and for a closed one
+
+
+def create_remote_policy(context, **options) -> RemotePolicy:
+    from dataclasses import asdict
+
+    from xicm.serving.client import PolicyClient, ServerError, server_uri
+
+    options = {**asdict(RemotePolicyOptions()), **options}
+    client = PolicyClient(server_uri(options["host"], options["port"]), options["timeout_s"], options["api_key"])
+    try:
+        client.connect()
+    except ServerError as exc:
+        raise ConfigError(f"policy.host/port: {exc}") from exc
+    policy = RemotePolicy(client, options)
+    mode = context.cfg.simulator.get("control_mode")
+    if policy.per_step and mode is not None and policy.space != mode:
+        raise ConfigError(
+            f"policy.action_space is {policy.space} but simulator.control_mode is {mode}; per-step actions are stepped in the simulator's control mode"
+        )
+    return policy
+
+
+def check_remote_config(cfg, registry) -> None:
+    if float(cfg.policy.gripper_open) == float(cfg.policy.gripper_closed):
+        raise ConfigError("policy.gripper_open and policy.gripper_closed must differ")
+
+
+@hookimpl
+def register_policies(register):
+    register("remote", create_remote_policy, options=RemotePolicyOptions, check=check_remote_config)

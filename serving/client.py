@@ -1,0 +1,75 @@
+"""A client for openpi-style policy servers with time limits and one-sentence errors."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
+from websockets.sync.client import ClientConnection, connect
+
+from xicm.serving.wire import pack, unpack
+
+
+class ServerError(Exception):
+    """The server could not be reached, answered late, or answered with an error."""
+
+    def __init__(self, kind: str, message: str):
+        super().__init__(message)
+        self.kind = kind  # "server_unreachable" | "server_timeout" | "server_error"
+
+
+def server_uri(host: str, port: int | None = None) -> str:
+    uri = host if host.startswith(("ws://", "wss://")) else f"ws://{host}"
+    return uri if port is None else f"{uri}:{port}"
+
+
+class PolicyClient:
+    """One connection to a policy server: `metadata` (sent by the server at connect) and `infer`."""
+
+    def __init__(self, uri: str, timeout_s: float = 30.0, api_key: str | None = None):
+        self.uri = uri
+        self.timeout_s = float(timeout_s)
+        self.api_key = api_key
+        self.metadata: dict = {}
+        self._ws: ClientConnection | None = None
+
+    def connect(self) -> dict:
+        """(Re)connect; returns the server's metadata. Raises ServerError("server_unreachable")."""
+        self.close()
+        headers = {"Authorization": f"Api-Key {self.api_key}"} if self.api_key else None
+        try:
+            self._ws = connect(
+                self.uri, compression=None, max_size=None, open_timeout=self.timeout_s, additional_headers=headers
+            )
+            self.metadata = unpack(self._ws.recv(timeout=self.timeout_s))
+        except (OSError, TimeoutError, InvalidHandshake, InvalidURI, ConnectionClosed) as exc:
+            self._ws = None
+            raise ServerError("server_unreachable", f"no policy server answered at {self.uri} ({type(exc).__name__}: {exc})") from exc
+        if not isinstance(self.metadata, dict):
+            raise ServerError("server_error", f"the server at {self.uri} sent metadata that is not a map")
+        return self.metadata
+
+    def infer(self, obs: dict) -> Any:
+        """Send one observation and return the server's reply (connecting first when not connected)."""
+        if self._ws is None:
+            self.connect()
+        try:
+            self._ws.send(pack(obs))
+            reply = self._ws.recv(timeout=self.timeout_s)
+        except TimeoutError as exc:
+            self.close()  # a late reply would answer the next request: start over
+            raise ServerError("server_timeout", f"the policy server at {self.uri} did not answer within {self.timeout_s:g} s") from exc
+        except (ConnectionClosed, OSError) as exc:
+            self.close()
+            raise ServerError("server_unreachable", f"the connection to {self.uri} was lost ({type(exc).__name__})") from exc
+        if isinstance(reply, str):
+            raise ServerError("server_error", f"the policy server at {self.uri} failed: {reply.strip()[:300]}")
+        return unpack(reply)
+
+    def close(self) -> None:
+        if self._ws is not None:
+            try:
+                self._ws.close()
+            except Exception:  # noqa: BLE001 - closing a dead link
+                pass
+            self._ws = None

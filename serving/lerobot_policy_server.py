@@ -1,0 +1,86 @@
+"""Serve a LeRobot checkpoint in openpi's websocket dialect. Runs INSIDE the lerobot environment
+(xicm's own cannot import lerobot: export/lerobot_env.py says why), with xicm's serving package
+on PYTHONPATH (serving/lerobot_serve.py starts it that way):
+
+    python lerobot_policy_server.py --checkpoint DIR [--host H] [--port P] [--action-space S]
+
+A request holds LeRobot's own keys: "observation.images.<camera>" (uint8 H x W x 3),
+"observation.state" (float vector) and "task" (the instruction); the reply is
+{"actions": (chunk_size, action_dim)}, the policy's whole predicted chunk, unnormalised (the
+client executes the first policy.chunk_steps_to_execute rows). Nothing is kept between requests.
+"""
+
+import argparse
+import logging
+
+import numpy as np
+import torch
+from lerobot.configs.policies import PreTrainedConfig
+from lerobot.policies.factory import get_policy_class, make_pre_post_processors
+
+from xicm.serving.server import PolicyServer
+
+
+class LeRobotChunks:
+    def __init__(self, checkpoint: str, device: str):
+        config = PreTrainedConfig.from_pretrained(checkpoint)
+        config.pretrained_path = checkpoint
+        config.device = device
+        self.policy = get_policy_class(config.type).from_pretrained(checkpoint, config=config)
+        self.policy.eval()
+        self.pre, self.post = make_pre_post_processors(
+            config, pretrained_path=checkpoint, preprocessor_overrides={"device_processor": {"device": device}}
+        )
+        self.config = config
+        self.image_keys = list(config.image_features)
+
+    def metadata(self, action_space: str | None) -> dict:
+        meta = {
+            "lerobot": {
+                "policy_type": self.config.type,
+                "image_keys": self.image_keys,
+                "state_dim": int(self.config.robot_state_feature.shape[0]) if self.config.robot_state_feature else 0,
+                "action_dim": int(self.config.action_feature.shape[0]),
+                "chunk_size": int(getattr(self.config, "chunk_size", getattr(self.config, "horizon", 1))),
+            }
+        }
+        if action_space:
+            meta["xicm"] = {"action_space": action_space, "observes": True, "observation": "none"}
+        return meta
+
+    def infer(self, obs: dict) -> dict:
+        batch = {}
+        for key in self.image_keys:
+            if key not in obs:
+                raise KeyError(f"the request has no '{key}' (the checkpoint reads {', '.join(self.image_keys)})")
+            image = torch.from_numpy(np.ascontiguousarray(obs[key])).permute(2, 0, 1).float() / 255.0
+            batch[key] = image.unsqueeze(0)
+        batch["observation.state"] = torch.from_numpy(np.asarray(obs["observation.state"], dtype=np.float32)).unsqueeze(0)
+        batch["task"] = [str(obs.get("task", ""))]
+        batch = self.pre(batch)
+        with torch.inference_mode():
+            chunk = self.policy.predict_action_chunk(batch)
+        chunk = self.post(chunk)
+        return {"actions": chunk[0].cpu().numpy().astype(np.float64)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--checkpoint", required=True, help="a LeRobot pretrained_model folder (config.json, model.safetensors, processors)")
+    parser.add_argument("--host", default="127.0.0.1")
+    parser.add_argument("--port", type=int, default=8000)
+    parser.add_argument("--device", default="cpu")
+    parser.add_argument("--action-space", default=None, help="announce the action space the checkpoint was trained in (xicm clients then need no policy.action_space)")
+    args = parser.parse_args()
+    logging.basicConfig(level=logging.INFO)
+    served = LeRobotChunks(args.checkpoint, args.device)
+    server = PolicyServer(served, args.host, args.port, metadata=served.metadata(args.action_space)).start()
+    print(f"serving {served.config.type} from {args.checkpoint} on ws://{args.host}:{server.port}", flush=True)
+    try:
+        server.wait()
+    except KeyboardInterrupt:
+        server.stop()
+
+
+if __name__ == "__main__":
+    main()

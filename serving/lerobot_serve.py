@@ -1,0 +1,68 @@
+"""xicm-serve-lerobot: serve a LeRobot checkpoint over openpi's websocket protocol from the
+lerobot environment (export/lerobot_env.py builds it once per machine), so `xicm-eval
+policy=remote` can evaluate it:
+
+    xicm-serve-lerobot CHECKPOINT [--host H] [--port P] [--action-space joint_pos]
+
+The server script (lerobot_policy_server.py) runs under that environment's interpreter with
+xicm's serving package importable through a one-link folder on PYTHONPATH (the package itself
+is not installed there: its other dependencies would clash).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import xicm
+
+
+def package_shim(cache: Path) -> Path:
+    """A folder holding only a link `xicm` -> this xicm package, for another interpreter's PYTHONPATH."""
+    shim = cache / "envs" / "xicm-package-link"
+    shim.mkdir(parents=True, exist_ok=True)
+    link = shim / "xicm"
+    target = Path(xicm.__file__).resolve().parent
+    if not link.is_symlink() or link.resolve() != target:
+        tmp = shim / f".xicm.{os.getpid()}"
+        tmp.unlink(missing_ok=True)
+        tmp.symlink_to(target, target_is_directory=True)
+        os.replace(tmp, link)  # atomic: another process never sees no link
+    return shim
+
+
+def server_command(python: Path, checkpoint: str, host: str, port: int, action_space: str | None, device: str) -> list[str]:
+    script = Path(__file__).with_name("lerobot_policy_server.py")
+    cmd = [str(python), str(script), "--checkpoint", str(checkpoint), "--host", host, "--port", str(port), "--device", device]
+    return cmd + (["--action-space", action_space] if action_space else [])
+
+
+def start(python: Path, cache: Path, checkpoint: str, host: str = "127.0.0.1", port: int = 8000,
+          action_space: str | None = None, device: str = "cpu", **popen) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(package_shim(cache)), "HF_HUB_OFFLINE": "1"}
+    return subprocess.Popen(server_command(python, checkpoint, host, port, action_space, device), env=env, **popen)
+
+
+def main() -> None:
+    from xicm.export.lerobot_env import env_python
+
+    parser = argparse.ArgumentParser(prog="xicm-serve-lerobot", description=__doc__.split("\n\n")[0])
+    parser.add_argument("checkpoint", help="a LeRobot pretrained_model folder (lerobot-train writes checkpoints/*/pretrained_model)")
+    parser.add_argument("--host", default="127.0.0.1", help="0.0.0.0 to accept other machines")
+    parser.add_argument("--port", type=int, default=8000, help="0: any free port (printed)")
+    parser.add_argument("--action-space", default=None, help="the export's simulator.control_mode the checkpoint was trained on (announced to clients)")
+    parser.add_argument("--device", default="cpu", help="torch device, e.g. cuda")
+    parser.add_argument("--cache", default=os.environ.get("XICM_CACHE", str(Path.home() / ".cache" / "xicm")), help="where the lerobot environment lives")
+    args = parser.parse_args()
+    if not (Path(args.checkpoint) / "config.json").is_file():
+        parser.exit(2, f"xicm-serve-lerobot: error: {args.checkpoint} is not a LeRobot checkpoint folder (it has no config.json)\n")
+    cache = Path(args.cache).expanduser()
+    server = start(env_python(cache), cache, args.checkpoint, args.host, args.port, args.action_space, args.device)
+    try:
+        sys.exit(server.wait())
+    except KeyboardInterrupt:
+        server.terminate()
+        sys.exit(server.wait())

@@ -1,0 +1,46 @@
+"""xicm-serve-policy: build the configured run (simulator + policy) and serve the policy."""
+
+from __future__ import annotations
+
+import logging
+
+from omegaconf import DictConfig, OmegaConf
+
+from xicm.core.build import Run, build_policy, check_run
+from xicm.core.sim_process import SimulatorProcess
+from xicm.core.plugins import get_registry
+from xicm.serving.served_policy import ServedPolicies
+from xicm.serving.server import PolicyServer
+
+
+def serve_policy(cfg: DictConfig, ready=None) -> None:
+    """Serve until interrupted; `ready(server)` is called once the port is open (tests, scripts)."""
+    registry = get_registry()
+    check_run(cfg, registry, list(cfg.benchmark.tasks))
+    config = OmegaConf.to_container(cfg, resolve=True)
+
+    warm_up = (str(cfg.benchmark.tasks[0]), 0, 0)
+
+    def build() -> Run:  # a session: its simulator in a worker process, its policy here
+        simulator = SimulatorProcess(config)
+        try:
+            simulator.reset(*warm_up)  # the first render of a process is slow: not on a client's clock
+            return Run(simulator, build_policy(cfg, registry, simulator), str(cfg.policy.name))
+        except BaseException:
+            simulator.close()
+            raise
+
+    served = ServedPolicies(build, control_mode=cfg.simulator.get("control_mode"), sessions=int(cfg.serve.sessions))
+    server = PolicyServer(served, host=str(cfg.serve.host), port=int(cfg.serve.port), metadata=served.metadata())
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
+    try:
+        server.start()
+        print(f"serving policy '{cfg.policy.name}' on ws://{server.host}:{server.port} (health: http://{server.host}:{server.port}/healthz)", flush=True)
+        if ready is not None:
+            ready(server)
+        server.wait()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.stop()
+        served.close()

@@ -1,0 +1,122 @@
+"""Any policy the registry builds, answering openpi-style requests (what xicm-serve-policy serves).
+
+The server keeps its own simulator (the policy is built with one, as in an evaluation). When a
+request starts an episode ("xicm/episode" with call 0, or another task/seed/episode) the server
+resets that simulator to the same scene and resets the policy with the episode's own random
+stream, exactly as a local evaluation does. A policy that observes gets the client's whole
+Observation ("xicm/observation"); one that reads the true state instead (the scripted oracle)
+gets its own simulator, which the server then moves with the same actions the client executes,
+so both stay in the same state (the simulation is deterministic).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from xicm.core.build import Run
+from xicm.core.errors import EpisodeFailure
+from xicm.core.seeding import episode_rng
+from xicm.core.types import ControlStep
+from xicm.serving.actions import from_actions
+from xicm.serving.observation import observation_from_wire
+
+
+class ServedPolicy:
+    def __init__(self, run: Run, control_mode: str | None = None):
+        self.run = run
+        self.policy = run.policy
+        self.control_mode = control_mode
+        self.current: tuple[str, int, int] | None = None
+
+    def metadata(self) -> dict[str, Any]:
+        observes = bool(getattr(self.policy, "observes", True))
+        return {
+            "xicm": {
+                "policy": self.run.policy_name,
+                "observes": observes,
+                "observation": "full" if observes else "none",
+                "action_space": getattr(self.policy, "action_space", "key_pose"),
+            }
+        }
+
+    def infer(self, obs: dict) -> dict:
+        ep = obs.get("xicm/episode")
+        if not isinstance(ep, dict) or not {"task", "seed", "episode"} <= set(ep):
+            raise ValueError("this server serves an xicm policy: each request needs 'xicm/episode' with task, seed, episode and call")
+        key = (str(ep["task"]), int(ep["seed"]), int(ep["episode"]))
+        observation = observation_from_wire(obs["xicm/observation"]) if "xicm/observation" in obs else None
+        if key != self.current or int(ep.get("call", 0)) == 0:
+            self._start(key, observation)
+        elif observation is None:
+            observation = self._own_observation()
+        try:
+            actions = self.policy.act(observation if observation is not None else self.first_obs)
+        except EpisodeFailure as failure:
+            self.current = None
+            return {"actions": [], "xicm/failure": {"kind": failure.kind, "message": failure.message}, "xicm/record": self._record()}
+        space, chunk = from_actions(actions)
+        if space == "control":
+            space = self.control_mode
+        if not getattr(self.policy, "observes", True):
+            self._follow(actions)
+        return {"actions": chunk, "xicm/action_space": space, "xicm/record": self._record()}
+
+    def _start(self, key: tuple[str, int, int], observation) -> None:
+        task, seed, episode = key
+        self.first_obs = self.run.simulator.reset(task, seed, episode)
+        self.current = key
+        self.policy.on_episode(task, seed, episode)
+        self.policy.reset(task, observation if observation is not None else self.first_obs,
+                          episode_rng(seed, task, episode, stream="policy"))
+
+    def _own_observation(self):
+        return self.first_obs if not getattr(self.policy, "observes", True) else self.run.simulator.observe()
+
+    def _follow(self, actions) -> None:
+        """Move the server's simulator as the client will, so a state-reading policy stays in step."""
+        sim = self.run.simulator
+        for action in actions:
+            outcome = sim.step(action.values) if isinstance(action, ControlStep) else sim.execute(action)
+            if not outcome.ok or outcome.success:
+                break
+
+    def _record(self) -> dict:
+        try:
+            record = self.policy.record()
+        except Exception as exc:  # noqa: BLE001 - a record problem must not lose the actions
+            return {"extra": {"record_error": f"{type(exc).__name__}: {exc}"}}
+        return {k: v for k, v in record.items() if k != "transcript"}
+
+
+class ServedPolicies:
+    """One ServedPolicy per client connection (each evaluation worker runs its own episodes),
+    built on first need by `build` and reused after its connection ends. Each session's
+    simulator lives in its own worker process (core/sim_process.py), so sessions act in parallel."""
+
+    def __init__(self, build: Callable[[], Run], control_mode: str | None = None, sessions: int = 1):
+        self.build = build
+        self.control_mode = control_mode
+        self.lock = threading.Lock()  # guards the session lists only
+        self.idle: list[ServedPolicy] = [ServedPolicy(build(), control_mode) for _ in range(max(1, sessions))]  # built at start
+        self.all = list(self.idle)
+
+    def metadata(self) -> dict[str, Any]:
+        return self.all[0].metadata()
+
+    def open_session(self) -> ServedPolicy:
+        with self.lock:
+            if not self.idle:
+                self.idle.append(ServedPolicy(self.build(), self.control_mode))
+                self.all.append(self.idle[-1])
+            return self.idle.pop()
+
+    def close_session(self, session: ServedPolicy) -> None:
+        with self.lock:
+            session.current = None
+            self.idle.append(session)
+
+    def close(self) -> None:
+        for served in self.all:
+            served.run.close()

@@ -1,0 +1,127 @@
+"""A policy server in openpi's websocket dialect, for any object with `infer(obs) -> dict`.
+
+At connect the server sends its metadata; then every binary frame from the client is one
+observation and is answered with one binary frame (the policy's output dict, usually
+{"actions": array}). A failing `infer` is answered with a text frame holding one sentence and
+the connection stays open (openpi's own server closes it). `GET /healthz` answers 200 "OK".
+"""
+
+from __future__ import annotations
+
+import asyncio
+import http
+import logging
+import threading
+from typing import Any, Protocol
+
+from websockets.asyncio.server import Request, Response, ServerConnection, serve
+from websockets.exceptions import ConnectionClosed
+
+from xicm.serving.wire import pack, unpack
+
+log = logging.getLogger(__name__)
+
+
+class InferencePolicy(Protocol):
+    def infer(self, obs: dict) -> dict: ...
+
+
+class Sessions(Protocol):
+    """A policy with state per client (xicm policies run episodes): each connection gets its own
+    session from `open_session()`, handed back with `close_session(session)` when it ends."""
+
+    def open_session(self) -> InferencePolicy: ...
+
+    def close_session(self, session: InferencePolicy) -> None: ...
+
+
+def _health(connection: ServerConnection, request: Request) -> Response | None:
+    if request.path == "/healthz":
+        return connection.respond(http.HTTPStatus.OK, "OK\n")
+    return None  # anything else goes on to the websocket handshake
+
+
+class PolicyServer:
+    """Serves `policy` on host:port (port 0: the OS picks one; `port` holds it once started).
+
+    A stateless policy (openpi's kind) is shared by all connections, one `infer` at a time; a
+    `Sessions` policy gives each connection its own session (which may share a lock of its own).
+    """
+
+    def __init__(self, policy: InferencePolicy | Sessions, host: str = "127.0.0.1", port: int = 8000, metadata: dict | None = None):
+        self.policy = policy
+        self.host = host
+        self.port = int(port)
+        self.metadata = dict(metadata or {})
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stop: asyncio.Event | None = None
+        self._thread: threading.Thread | None = None
+        self._lock = threading.Lock()  # one infer at a time: policies are not thread-safe
+
+    async def _handle(self, ws: ServerConnection) -> None:
+        log.info("connection from %s", ws.remote_address)
+        await ws.send(pack(self.metadata))  # at once: a new session may take a while to build
+        if hasattr(self.policy, "open_session"):
+            session = await asyncio.to_thread(self.policy.open_session)
+            try:
+                await self._serve_connection(ws, session.infer)
+            finally:
+                self.policy.close_session(session)
+        else:
+            await self._serve_connection(ws, self._infer_shared)
+
+    async def _serve_connection(self, ws: ServerConnection, infer) -> None:
+        while True:
+            try:
+                frame = await ws.recv()
+            except ConnectionClosed:
+                return
+            try:
+                if isinstance(frame, str):
+                    raise TypeError("the observation frame must be binary msgpack, got text")
+                obs = unpack(frame)
+                if not isinstance(obs, dict):
+                    raise TypeError(f"the observation must be a map, got {type(obs).__name__}")
+                reply = await asyncio.to_thread(infer, obs)
+            except Exception as exc:  # noqa: BLE001 - the client gets the reason, the server goes on
+                log.warning("infer failed: %s: %s", type(exc).__name__, exc)
+                await ws.send(f"{type(exc).__name__}: {exc}")
+                continue
+            await ws.send(pack(reply))
+
+    def _infer_shared(self, obs: dict) -> Any:
+        with self._lock:
+            return self.policy.infer(obs)
+
+    async def _serve(self, started: threading.Event | None) -> None:
+        self._stop = asyncio.Event()
+        async with serve(self._handle, self.host, self.port, compression=None, max_size=None, process_request=_health) as server:
+            self.port = server.sockets[0].getsockname()[1]
+            if started is not None:
+                started.set()
+            await self._stop.wait()
+
+    def start(self) -> PolicyServer:
+        """Serve from a background thread; returns once the port is open."""
+        started = threading.Event()
+
+        def run() -> None:
+            self._loop = asyncio.new_event_loop()
+            self._loop.run_until_complete(self._serve(started))
+
+        self._thread = threading.Thread(target=run, name="policy-server", daemon=True)
+        self._thread.start()
+        if not started.wait(timeout=30):
+            raise RuntimeError(f"the policy server did not start on {self.host}:{self.port} within 30 s")
+        return self
+
+    def wait(self) -> None:
+        """Block until the background server stops (Ctrl-C raises KeyboardInterrupt here)."""
+        while self._thread is not None and self._thread.is_alive():
+            self._thread.join(timeout=0.5)
+
+    def stop(self) -> None:
+        if self._loop is not None and self._stop is not None:
+            self._loop.call_soon_threadsafe(self._stop.set)
+        if self._thread is not None:
+            self._thread.join(timeout=10)

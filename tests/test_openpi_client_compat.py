@@ -1,0 +1,54 @@
+"""Wire compatibility with openpi's own client (PyPI `openpi-client`, in its own environment: it
+pins numpy < 2, so it is installed there with --no-deps beside what it imports)."""
+
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from xicm.core.isolated_env import EnvSpec, env_python
+from xicm.serving.server import PolicyServer
+from xicm.serving.wire import unpack
+
+pytestmark = pytest.mark.slow
+
+OPENPI_CLIENT = EnvSpec(
+    name="openpi-client",
+    python="python3.11",
+    no_deps=("openpi-client==0.1.2",),
+    requirements=("numpy>=2", "msgpack>=1.0", "websockets>=14", "typing_extensions"),
+    check="from openpi_client.websocket_client_policy import WebsocketClientPolicy",
+)
+
+
+class Echo:
+    def infer(self, obs):
+        state = np.asarray(obs["observation/state"])
+        image_sum = np.full(8, obs["observation/image"].astype(np.float32).sum(), dtype=np.float32)
+        prompt_len = np.full(8, len(obs["prompt"]), dtype=np.float32)
+        return {"actions": np.stack([state, image_sum, prompt_len])}
+
+
+def test_openpis_client_talks_to_our_server_and_its_frames_unpack_here(tmp_path):
+    import os
+
+    python = env_python(OPENPI_CLIENT, os.environ.get("XICM_CACHE", Path.home() / ".cache" / "xicm"))
+    server = PolicyServer(Echo(), port=0, metadata={"action_dim": 8}).start()
+    try:
+        out = tmp_path / "reply.npz"
+        probe = Path(__file__).with_name("openpi_client_probe.py")
+        done = subprocess.run([str(python), str(probe), "127.0.0.1", str(server.port), str(out)],
+                              capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr[-3000:]
+    finally:
+        server.stop()
+    got = np.load(out)
+    state = np.linspace(0, 1, 8, dtype=np.float32)
+    sent_image_sum = float(np.arange(4 * 4 * 3).sum())  # what the probe sent, as our server unpacked it
+    expected = np.stack([state, np.full(8, sent_image_sum), np.full(8, len("close the box"))]).astype(np.float32)
+    np.testing.assert_array_equal(got["actions"], expected)  # obs in, reply out, both ways
+    assert got["actions"].dtype == np.float32 and int(got["metadata_action_dim"]) == 8
+    frame = unpack(got["openpi_frame"].tobytes())  # a frame packed by openpi's own packer
+    np.testing.assert_array_equal(frame["actions"], np.eye(3, 8))
+    assert frame["step"] == 5 and frame["step"].dtype == np.int32

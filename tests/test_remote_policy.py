@@ -1,0 +1,174 @@
+"""policy=remote against real servers on 127.0.0.1: what bad replies do to an episode, and a
+served oracle reaching exactly the oracle's episodes."""
+
+import dataclasses
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from xicm.core.build import Run
+from xicm.core.episode import run_episode
+from xicm.plugins.policies.oracle import OraclePolicy
+from xicm.plugins.policies.remote import RemotePolicy, RemotePolicyOptions
+from xicm.serving.client import PolicyClient, server_uri
+from xicm.serving.served_policy import ServedPolicy
+from xicm.serving.server import PolicyServer
+
+TASK = "open_drawer"
+
+
+class Replies:
+    """A server-side policy that answers each request with the next scripted reply."""
+
+    def __init__(self, *replies):
+        self.replies = list(replies)
+
+    def infer(self, obs):
+        reply = self.replies.pop(0)
+        if isinstance(reply, Exception):
+            raise reply
+        if isinstance(reply, float):
+            time.sleep(reply)
+            return {"actions": np.zeros((1, 8))}
+        return reply
+
+
+def remote(port, timeout_s=10.0, **options):
+    client = PolicyClient(server_uri("127.0.0.1", port), timeout_s)
+    client.connect()
+    opts = {**dataclasses.asdict(RemotePolicyOptions()), "action_space": "key_pose", "state_key": None, **options}
+    return RemotePolicy(client, opts)
+
+
+@pytest.mark.parametrize(
+    "reply, kind, words",
+    [
+        ({"actions": np.zeros((2, 5))}, "bad_reply", "shape (2, 5); action space key_pose needs (N, 8)"),
+        ({"actions": np.full((1, 8), np.nan)}, "bad_reply", "NaN or infinite"),
+        ({"act": np.zeros((1, 8))}, "bad_reply", "no 'actions' (keys: act)"),
+        (RuntimeError("CUDA out of memory"), "server_error", "RuntimeError: CUDA out of memory"),
+        (3.0, "server_timeout", "did not answer within 1 s"),
+    ],
+)
+def test_a_bad_reply_fails_the_episode_with_a_reason_and_the_next_one_runs(sim, reply, kind, words):
+    # the second reply is a reachable pose above the table: that episode runs its key action
+    good = {"actions": np.array([[0.1, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0]])}
+    server = PolicyServer(Replies(reply, good), port=0).start()
+    try:
+        policy = remote(server.port, timeout_s=1.0)
+        first = run_episode(sim, policy, TASK, 0, 0, max_steps=1)
+        assert (first.success, first.error_kind) == (False, kind) and words in first.error_message
+        if kind == "server_timeout":
+            time.sleep(2.5)  # the server finishes the slow request before it answers the next
+        second = run_episode(sim, policy, TASK, 0, 1, max_steps=1)
+        assert second.steps == 1 and second.error_kind == "max_steps", second.error_message
+    finally:
+        server.stop()
+
+
+def test_the_observation_is_mapped_to_the_servers_keys(sim):
+    seen = []
+
+    class Recorder:
+        def infer(self, obs):
+            seen.append(obs)
+            return {"actions": np.array([[0.1, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0]])}
+
+    server = PolicyServer(Recorder(), port=0).start()
+    try:
+        policy = remote(server.port, images={"front": "observation/image", "wrist": "observation/wrist_image"}, image_size=64,
+                        state_key="observation/state", state=["joint_positions", "gripper_width"])
+        run_episode(sim, policy, TASK, 0, 0, max_steps=1)
+    finally:
+        server.stop()
+    obs = seen[0]
+    assert obs["observation/image"].shape == (64, 64, 3) and obs["observation/image"].dtype == np.uint8
+    assert obs["observation/wrist_image"].shape == (64, 64, 3)
+    assert obs["observation/state"].shape == (8,) and obs["observation/state"].dtype == np.float32
+    assert obs["prompt"] == sim.observe(["front"]).instruction  # the episode's instruction (its variation)
+    assert obs["xicm/episode"] == {"task": TASK, "seed": 0, "episode": 0, "call": 0}
+
+
+def test_a_served_oracle_plays_exactly_the_oracles_episodes(sim):
+    from xicm.core.plugins import get_registry
+
+    server_sim = get_registry().create_simulator({"name": "sapien", "image_size": 32, "cameras": ["front"]})
+    served = ServedPolicy(Run(server_sim, OraclePolicy(server_sim), "oracle"))
+    server = PolicyServer(served, port=0, metadata=served.metadata()).start()
+    try:
+        policy = remote(server.port, action_space="auto", images={})
+        assert policy.observes is False and policy.space == "key_pose"
+        for task, episode in (("open_drawer", 0), ("push_buttons", 1)):
+            over_the_wire = run_episode(sim, policy, task, 0, episode)
+            local = run_episode(sim, OraclePolicy(sim), task, 0, episode)
+            assert (over_the_wire.success, over_the_wire.steps, over_the_wire.error_kind) == (local.success, local.steps, local.error_kind)
+            assert local.success
+    finally:
+        server.stop()
+        server_sim.close()
+
+
+BIN = Path(sys.executable).parent
+
+
+@pytest.mark.slow
+def test_eval_against_xicm_serve_policy_and_against_nothing(tmp_path):
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    common = ["benchmark.tasks=[push_buttons]", "episodes=2", "progress=false", f"paths.cache={tmp_path}/cache"]
+    down = subprocess.run([str(BIN / "xicm-eval"), "policy=remote", f"policy.port={port}", *common, "hydra.run.dir=down"],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    assert down.returncode == 2 and f"no policy server answered at ws://127.0.0.1:{port}" in down.stderr
+    assert not (tmp_path / "down" / "episodes.jsonl").exists()
+
+    server = subprocess.Popen([str(BIN / "xicm-serve-policy"), "policy=oracle", f"serve.port={port}", "simulator.image_size=32"],
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path)
+    try:
+        for line in server.stdout:  # wait for the port to open
+            if "serving policy 'oracle'" in line:
+                break
+        else:
+            pytest.fail("xicm-serve-policy exited before serving")
+        served = subprocess.run([str(BIN / "xicm-eval"), "policy=remote", f"policy.port={port}", *common, "hydra.run.dir=served"],
+                                capture_output=True, text=True, cwd=tmp_path, timeout=600)
+        assert served.returncode == 0, served.stderr[-3000:]
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+    local = subprocess.run([str(BIN / "xicm-eval"), "policy=oracle", *common, "hydra.run.dir=local"],
+                           capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    assert local.returncode == 0, local.stderr[-3000:]
+
+    import json
+
+    def rows(run):
+        return [{k: r[k] for k in ("task", "seed", "episode", "success", "steps", "error_kind")}
+                for r in map(json.loads, (tmp_path / run / "episodes.jsonl").read_text().splitlines())]
+
+    assert rows("served") == rows("local") and all(r["success"] for r in rows("local"))
+
+
+def test_a_whole_observation_survives_the_wire(sim):
+    from xicm.serving.observation import observation_from_wire, observation_to_wire
+    from xicm.serving.wire import pack, unpack
+
+    obs = sim.reset(TASK, 0, 0)
+    back = observation_from_wire(unpack(pack(observation_to_wire(obs))))
+    assert (back.instruction, back.object_names, back.segment_names, back.gripper) == (
+        obs.instruction, obs.object_names, obs.segment_names, obs.gripper)
+    assert set(back.cameras) == set(obs.cameras)
+    for name, frame in obs.cameras.items():
+        for field in ("rgb", "depth", "segmentation", "intrinsic", "cam_to_world"):
+            mine, theirs = getattr(frame, field), getattr(back.cameras[name], field)
+            if mine is None:
+                assert theirs is None
+            else:
+                assert theirs.dtype == mine.dtype and np.array_equal(theirs, mine), (name, field)
+    assert set(back.proprio) == set(obs.proprio) and all(np.array_equal(back.proprio[k], obs.proprio[k]) for k in obs.proprio)
+    np.testing.assert_array_equal(back.joint_positions, obs.joint_positions)
