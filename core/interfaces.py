@@ -139,6 +139,10 @@ class LLM(ABC):
         """Model and decoding settings; part of the response-cache key."""
         return type(self).__name__
 
+    def check_ready(self) -> None:
+        """Called once when a run starts, before any episode: raise ConfigError (one sentence)
+        if the model cannot answer at all (e.g. its server is down or does not serve it)."""
+
 
 class Policy(ABC):
     """Maps observations (with the instruction in them) to key actions, one episode at a time.

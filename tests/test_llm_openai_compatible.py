@@ -50,11 +50,22 @@ class FakeOpenAI:
         self.script: list[tuple] = []
         self.requests: list[dict] = []
         self.reply = "[[1, 2, 3, 4, 5, 6, 1]]"
+        self.models: list[str] | int = ["test-model"]  # GET /models: the served ids, or an HTTP status
         fake = self
 
         class Handler(BaseHTTPRequestHandler):
             def log_message(self, *args):
                 pass
+
+            def do_GET(self):
+                fake.requests.append({"path": self.path, "headers": {k.lower(): v for k, v in self.headers.items()}, "body": None})
+                if not self.path.endswith("/models"):
+                    self._send(404, b"{}")
+                elif isinstance(fake.models, int):
+                    self._send(fake.models, json.dumps({"error": {"message": "no"}}).encode())
+                else:
+                    data = [{"id": m, "object": "model", "created": 0, "owned_by": "test"} for m in fake.models]
+                    self._send(200, json.dumps({"object": "list", "data": data}).encode())
 
             def do_POST(self):
                 length = int(self.headers.get("Content-Length", 0))
@@ -221,6 +232,30 @@ def test_unreachable_server():
     client = OpenAICompatibleLLM(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=1)
     with pytest.raises(LLMError, match=r"failed after 2 attempt\(s\): cannot connect \(.*refused"):
         client.complete(make_prompt())
+
+
+def test_the_server_is_checked_once_at_start(fake):
+    llm(fake).check_ready()  # serves test-model: fine
+    assert fake.requests[-1]["path"] == "/v1/models"
+    fake.models = ["Qwen/Qwen2.5-7B-Instruct", "other"]
+    with pytest.raises(ConfigError, match=r"llm.model 'test-model' is not served at http://127.0.0.1:\d+/v1; it serves: Qwen/Qwen2.5-7B-Instruct, other"):
+        llm(fake).check_ready()
+    fake.models = 401
+    with pytest.raises(ConfigError, match=r"/v1/models answered HTTP 401"):
+        llm(fake).check_ready()
+    fake.models = 404  # a server without a model list cannot be checked: trusted
+    llm(fake).check_ready()
+    assert not [r for r in fake.requests if r["path"].endswith("completions")]  # checking sends no completion
+
+
+def test_a_dead_server_is_one_sentence_at_start_without_retries():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    start = time.perf_counter()
+    with pytest.raises(ConfigError, match=rf"llm.base_url: no OpenAI-compatible server answered at http://127.0.0.1:{port}/v1/models"):
+        OpenAICompatibleLLM(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=3).check_ready()
+    assert time.perf_counter() - start < 5  # no retries with backoff
 
 
 def test_config_errors_and_registration():

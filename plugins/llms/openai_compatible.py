@@ -31,6 +31,10 @@ retries (3)
     JSON or hold no text fail at once. A failure raises xicm.core.errors.LLMError
     with one sentence (the episode ends with error kind ``llm_error`` and the run goes on).
 
+When a run starts, the server is asked once for its model list (``check_ready``): a server that
+does not answer, refuses the key, or does not serve ``model`` stops the run with one sentence
+before any episode (instead of every episode waiting for its retries and ending in llm_error).
+
 The HTTP client is the ``openai`` package (``pip install 'xicm[llm]'``), imported when the
 plugin is created, not when it is registered.
 """
@@ -135,6 +139,27 @@ class OpenAICompatibleLLM(LLM):
 
     def complete(self, prompt: Prompt) -> str:
         return self.complete_messages(prompt.messages)
+
+    def check_ready(self) -> None:
+        """Ask the server once for its model list (GET {base_url}/models, no retries): a server
+        that does not answer, refuses the key, or does not serve `model` stops the run here.
+        A server without that endpoint (404/405/501) cannot be checked and is trusted."""
+        openai = self._openai
+        client = self._client.with_options(max_retries=0, timeout=min(self.timeout_s, 15.0))
+        where = f"{self.base_url}/models"
+        try:
+            served = [m.id for m in client.models.list(extra_headers=self._no_auth)]
+        except openai.APIConnectionError as exc:  # timeouts included
+            raise ConfigError(f"llm.base_url: no OpenAI-compatible server answered at {where} ({exc.__cause__ or exc})") from None
+        except openai.APIStatusError as exc:
+            if exc.status_code in (404, 405, 501):
+                return
+            raise ConfigError(f"llm.base_url: {where} answered HTTP {exc.status_code}{_error_detail(exc.response.text)}") from None
+        except (json.JSONDecodeError, openai.APIResponseValidationError):
+            return  # not a model list: nothing to check against
+        if served and self.model not in served:
+            shown = ", ".join(served[:10]) + (" ..." if len(served) > 10 else "")
+            raise ConfigError(f"llm.model '{self.model}' is not served at {self.base_url}; it serves: {shown}")
 
     def complete_messages(self, messages: list[dict[str, str]]) -> str:
         """Reply to raw chat messages (the client retries transient failures)."""

@@ -53,6 +53,9 @@ def build_retriever(cfg: DictConfig, registry: Registry, encoder):
 def build_llm(cfg: DictConfig, registry: Registry):
     """The configured LLM, behind the SQLite response cache when it decodes deterministically."""
     llm = registry.create("llm", part_options(cfg, "llm"))
+    check_ready = getattr(llm, "check_ready", None)  # plugins written before it existed lack it
+    if check_ready is not None:
+        check_ready()
     if cfg.llm_cache.enabled and getattr(llm, "deterministic", False):
         from xicm.core.llm_cache import CachedLLM
 
