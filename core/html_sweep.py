@@ -13,7 +13,7 @@ from xicm.core import report_figures, table2
 from xicm.core.atomic import write_atomic
 from xicm.core.html_report import REPORT_HTML, render
 from xicm.core.run_dir import RunDir
-from xicm.core.sweep import _sortable, collect_sweep, group_names
+from xicm.core.sweep import sortable, collect_sweep, group_names
 
 SWEEP_HTML = "sweep.html"
 PLOT_GROUP = "All"  # the group each axis plot shows; the table has every group
@@ -44,7 +44,7 @@ def axis_lines(sweep: dict[str, Any], axis: str) -> dict[str, list[tuple[Any, fl
         pooled = row["pooled"][PLOT_GROUP]
         lines.setdefault(label, []).append((row[axis], row["groups"][PLOT_GROUP][0], pooled["ci_low"], pooled["ci_high"]))
     for points in lines.values():
-        points.sort(key=lambda p: _sortable(p[0]))
+        points.sort(key=lambda p: sortable(p[0]))
     return lines
 
 
@@ -59,7 +59,7 @@ def sweep_context(root: Path, runs: list[Path]) -> dict[str, Any]:
         row["label"] = os.path.relpath(run, root)
     plots = []
     for axis in sweep["axes"]:
-        xs = sorted({row[axis] for row in sweep["rows"]}, key=_sortable)
+        xs = sorted({row[axis] for row in sweep["rows"]}, key=sortable)
         plots.append({"axis": axis, "svg": report_figures.sweep_axis(axis_lines(sweep, axis), axis, xs, PLOT_GROUP)})
     return {
         "title": f"xicm sweep: {Path(root).resolve().name}",
