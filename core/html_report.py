@@ -39,6 +39,23 @@ def _label(meta: dict[str, Any], run_dir: Path) -> str:
     return str((meta.get("config") or {}).get("run_name") or Path(run_dir).name)
 
 
+def _episode_key(row: dict[str, Any]) -> tuple[int, int]:
+    return int(row["seed"]), int(row["episode"])
+
+
+def _episode(run_dir: Path, row: dict[str, Any], thumb_class: dict[str, str], budget: report_media.VideoBudget) -> dict[str, Any]:
+    """What the page shows of one episode row: its demos, video and transcript."""
+    extra = row.get("extra") or {}
+    return {
+        "row": row,
+        "retrieved": [{"id": d, "thumb": thumb_class.get(d)} for d in row.get("retrieved") or []],
+        "video": budget.source(run_dir, extra["video"]) if extra.get("video") else None,
+        "video_error": extra.get("video_error"),
+        "transcript": report_media.transcript(run_dir, extra.get("transcript")),
+        "seconds": (row.get("timings") or {}).get("total"),
+    }
+
+
 def run_context(run_dir: Path, inline_video_mb: float = INLINE_VIDEO_MB, pool: str | None = None) -> dict[str, Any]:
     run = RunDir(run_dir)
     meta = run.read_meta()
@@ -58,22 +75,10 @@ def run_context(run_dir: Path, inline_video_mb: float = INLINE_VIDEO_MB, pool: s
     thumbs, pool_note = report_media.demo_thumbnails(pool or config.get("pool_path"), run.path, (d for r in rows for d in r.get("retrieved") or []))
     thumb_class = {demo: f"d{i}" for i, demo in enumerate(sorted(thumbs))}
     budget = report_media.VideoBudget(int(inline_video_mb * report_media.MB), INLINE_VIDEO_TOTAL_MB * report_media.MB)
-    episodes = []
-    for t in summary["tasks"]:
-        items = []
-        for r in sorted(by_task[t["task"]], key=lambda r: (int(r["seed"]), int(r["episode"]))):
-            extra = r.get("extra") or {}
-            items.append(
-                {
-                    "row": r,
-                    "retrieved": [{"id": d, "thumb": thumb_class.get(d)} for d in r.get("retrieved") or []],
-                    "video": budget.source(run.path, extra["video"]) if extra.get("video") else None,
-                    "video_error": extra.get("video_error"),
-                    "transcript": report_media.transcript(run.path, extra.get("transcript")),
-                    "seconds": (r.get("timings") or {}).get("total"),
-                }
-            )
-        episodes.append({"task": t, "rows": items})
+    episodes = [
+        {"task": t, "rows": [_episode(run.path, r, thumb_class, budget) for r in sorted(by_task[t["task"]], key=_episode_key)]}
+        for t in summary["tasks"]
+    ]
 
     our_levels = {}
     for g, v in ours["groups"].items():
