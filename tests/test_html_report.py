@@ -182,3 +182,12 @@ def test_eval_job_writes_the_page_unless_report_html_is_false(tmp_path, enabled)
     run = make_run(tmp_path / "run", {(L1, 0): [True]})
     _write_html(OmegaConf.create({"report": {"html": enabled, "inline_video_mb": 2}}), run)
     assert (run / "report.html").is_file() == enabled
+
+
+def test_merged_runs_get_one_page(tmp_path, capsys):
+    a = make_run(tmp_path / "a", {(L1, 0): [True]})
+    b = make_run(tmp_path / "b", {(L2, 0): [False]})
+    report_main(["--merge", str(tmp_path / "merged"), str(a), str(b), "--html"])
+    assert f"written: {tmp_path}/merged/report.html" in capsys.readouterr().out
+    head, ours, *_ = Page((tmp_path / "merged/report.html").read_text()).rows["table2"]
+    assert ours[head.index(L1)].startswith("100.0") and ours[head.index(L2)].startswith("0.0") and ours[-1].startswith("50.0")
