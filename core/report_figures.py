@@ -124,8 +124,12 @@ def sweep_axis(lines: dict[str, list[tuple[Any, float, float, float]]], axis: st
     plt = _plt()
     numeric = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in xs)
     fig, ax = plt.subplots(figsize=(6.5, 3.8), dpi=100)
-    for label, points in lines.items():
-        pos = [p[0] if numeric else list(xs).index(p[0]) for p in points]
+    # lines with equal values would hide each other: shift each a little sideways
+    span = (max(xs) - min(xs) or 1) if numeric else len(xs)
+    step = 0.012 * span if numeric else 0.04
+    for i, (label, points) in enumerate(lines.items()):
+        shift = (i - (len(lines) - 1) / 2) * step
+        pos = [(p[0] if numeric else list(xs).index(p[0])) + shift for p in points]
         mean = [p[1] for p in points]
         err = [[max(m - p[2], 0) for m, p in zip(mean, points)], [max(p[3] - m, 0) for m, p in zip(mean, points)]]
         ax.errorbar(pos, mean, yerr=err, marker="o", capsize=3, label=label)
