@@ -81,7 +81,8 @@ def _eval_job(cfg: DictConfig) -> None:
         _fail(exc)
     print()
     print(markdown_table(summary))
-    print(f"\nresults: {out_dir}/ ({', '.join((EPISODES, *REPORT_FILES))})")
+    written = [*REPORT_FILES, *(["report.html"] if (out_dir / "report.html").is_file() and cfg.report.html else [])]
+    print(f"\nresults: {out_dir}/ ({', '.join((EPISODES, *written))})")
 
 
 @hydra.main(version_base="1.3", config_path=CONFIG_PATH, config_name="config")
@@ -132,11 +133,46 @@ def report_parser() -> argparse.ArgumentParser:
         "--merge", metavar="OUT_DIR",
         help="instead, write one report over the runs DIR... (one config, covering different tasks or seeds) into OUT_DIR",
     )
+    parser.add_argument(
+        "--html", action="store_true",
+        help="also write each run's self-contained report.html (Table-2 layout beside the paper's rows, tasks, "
+        "episodes with demos, transcripts and videos) and, over several runs, sweep.html",
+    )
+    parser.add_argument(
+        "--pool", metavar="PATH",
+        help="with --html: the demonstration pool to take retrieved demos' first frames from "
+        "(default: the run's pool_path, as recorded or relative to the run folder)",
+    )
+    parser.add_argument(
+        "--inline-video-mb", type=_non_negative, default=None, metavar="MB",
+        help="with --html: inline videos up to this size, link larger ones (default: the run's report.inline_video_mb, else 2)",
+    )
     return parser
 
 
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of megabytes >= 0")
+    return value
+
+
+def _write_html(run_dir: Path, args: argparse.Namespace) -> None:
+    from xicm.core.html_report import INLINE_VIDEO_MB, write_run_html
+    from xicm.core.run_dir import RunDir
+
+    limit = args.inline_video_mb
+    if limit is None:
+        limit = ((RunDir(run_dir).read_meta().get("config") or {}).get("report") or {}).get("inline_video_mb", INLINE_VIDEO_MB)
+    path = write_run_html(run_dir, inline_video_mb=float(limit), pool=args.pool)
+    print(f"written: {path} ({path.stat().st_size / 1e6:.2f} MB)\n")
+
+
 def report_main(argv: list[str] | None = None) -> None:
-    """xicm-report DIR [DIR ...] | --merge OUT_DIR RUN_DIR [RUN_DIR ...] (see report_parser)."""
+    """xicm-report DIR [DIR ...] [--html] | --merge OUT_DIR RUN_DIR [RUN_DIR ...] (see report_parser)."""
     from xicm.core.report import markdown_table, media_lines, summarise
     from xicm.core.run_dir import EPISODES, META, REPORT_FILES, RunDir, find_runs
 
@@ -150,6 +186,8 @@ def report_main(argv: list[str] | None = None) -> None:
             _fail(exc)
         print(markdown_table(summary))
         print(f"\nmerged into {args.merge} ({', '.join((EPISODES, META, *REPORT_FILES))})")
+        if args.html:
+            _write_html(Path(args.merge), args)
         return
     for arg in args.dirs:
         run_dirs = find_runs(Path(arg))
@@ -164,6 +202,8 @@ def report_main(argv: list[str] | None = None) -> None:
             for line in media_lines(rows, run_dir):  # rollout videos and LLM transcripts, if any
                 print(line)
             print()
+            if args.html:
+                _write_html(run_dir, args)
         if len(run_dirs) > 1:  # a sweep: one table over the runs, and a plot
             from xicm.core.sweep import SWEEP_FILES, sweep_markdown, write_sweep
 
@@ -171,3 +211,8 @@ def report_main(argv: list[str] | None = None) -> None:
             print(f"## sweep over {', '.join(sweep['axes']) or 'nothing (the runs share one config)'}\n")
             print(sweep_markdown(sweep))
             print(f"written: {Path(arg) / SWEEP_FILES[0]}, {', '.join(SWEEP_FILES[1:])}\n")
+            if args.html:
+                from xicm.core.html_sweep import write_sweep_html
+
+                path = write_sweep_html(Path(arg), run_dirs)
+                print(f"written: {path} ({path.stat().st_size / 1e6:.2f} MB)\n")

@@ -88,6 +88,12 @@ class Video:
 
 
 @dataclass
+class Report:
+    html: bool = MISSING
+    inline_video_mb: Any = field(default=MISSING, metadata=number(0))
+
+
+@dataclass
 class Shards:
     backend: str = field(default=MISSING, metadata=one_of("local", "ray"))
     workers: int = field(default=MISSING, metadata=at_least(1))
@@ -136,6 +142,7 @@ class XicmConfig:
     tracking: Tracking = field(default_factory=Tracking)
     video: Video = field(default_factory=Video)
     transcripts: bool = MISSING
+    report: Report = field(default_factory=Report)
     shards: Shards = field(default_factory=Shards)
     serve: Serve = field(default_factory=Serve)
     envs: int = field(default=MISSING, metadata=at_least(1))

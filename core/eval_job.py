@@ -56,7 +56,8 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
                 on_result=lambda r: tracker.log({"success": int(r.success), "steps": r.steps, f"task/{r.task}/success": int(r.success)}),
             )
             summary = report.write_report(rows, splits, tasks, out_dir)
-            _track_summary(tracker, summary)
+            _write_html(cfg, out_dir)
+            _track_summary(tracker, summary, rows, str(cfg.run_name), f"ours, {cfg.simulator.name}")
             tracker.log_run_media(rows, out_dir)
         finally:
             note = tracker.finish()
@@ -65,10 +66,36 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     return summary
 
 
-def _track_summary(tracker: Tracker, summary: dict[str, Any]) -> None:
+def _write_html(cfg: DictConfig, out_dir: Path) -> None:
+    """report.html beside table.md (report.html: false turns it off); a problem here is printed,
+    never a failed run: its results are already written."""
+    if not cfg.report.html:
+        return
+    from xicm.core.html_report import write_run_html
+
+    try:
+        write_run_html(out_dir, inline_video_mb=float(cfg.report.inline_video_mb))
+    except Exception as exc:  # noqa: BLE001
+        print(f"report.html not written ({type(exc).__name__}: {exc}); `xicm-report {out_dir} --html` retries it")
+
+
+def _track_summary(tracker: Tracker, summary: dict[str, Any], rows: list[dict[str, Any]], name: str, source: str) -> None:
+    """Success per group in the run's summary, the per-task table, and the paper's Table 2 with
+    our row and its per-level bars (tables and a bar chart in the wandb dashboard)."""
+    if not tracker.enabled:
+        return
+    from xicm.core import table2
+
     tracker.summary({f"success/{g['group']}": g["success"] for g in summary["groups"]})
     tracker.log_table(
         "tasks",
         ["task", "split", "success", "std", "n", "ci_low", "ci_high"],
         [[r["task"], r["split"], r["success"], r["std"], r["n"], r["ci_low"], r["ci_high"]] for r in summary["tasks"]],
     )
+    ours = table2.our_row(rows, name)
+    if ours["groups"]:
+        tracker.log_table("table2", *table2.flat_rows(ours, source))
+        tracker.log_bars(
+            "table2_levels", "level", "success", [(level, round(ours["groups"][level]["success"], 2)) for level in table2.LEVELS if level in ours["groups"]],
+            title=f"{name}: success % per level (AGNOSTOS unseen tasks)",
+        )

@@ -41,7 +41,10 @@ VERDICTS = {True: "PASS", False: "FAIL"}  # a video's name ends in its episode's
 # in them are the same run. The one list behind the resume fingerprint, merge's check, the sweep
 # axes and a multirun job's folder name (conf/config.yaml's exclude_keys resolve to it).
 # `pool_path` is not here: pointing it at another pool changes the results.
-OUTSIDE_IDENTITY = ("paths", "progress", "tracking", "llm_cache", "run_name", "collect", "export", "shards", "video", "transcripts", "serve", "envs")
+OUTSIDE_IDENTITY = (
+    "paths", "progress", "tracking", "llm_cache", "run_name", "collect", "export", "shards", "video", "transcripts",
+    "serve", "envs", "report",
+)
 GROWS_ON_RESUME = ("seeds", "episodes")  # re-running a run with more of them extends it
 MERGE_MAY_DIFFER = ("benchmark.tasks", "seeds", "episodes")  # merged runs cover different tasks/seeds
 

@@ -80,11 +80,11 @@ def collect_sweep(runs: list[Path]) -> dict[str, Any]:
                 "run": str(run),
             }
         )
-    rows.sort(key=lambda r: [_sortable(r[a]) for a in axes])
+    rows.sort(key=lambda r: [sortable(r[a]) for a in axes])
     return {"axes": axes, "rows": rows}
 
 
-def _sortable(value):
+def sortable(value):
     return (0, float(value), "") if isinstance(value, (int, float)) and not isinstance(value, bool) else (1, 0.0, str(value))
 
 
@@ -142,11 +142,11 @@ def sweep_plot(sweep: dict[str, Any], path: Path) -> Path | None:
             label = g if not others else ", ".join(f"{k}={row[k]}" for k in others)
             mean, std, _ = row["groups"][g]
             lines.setdefault(label, []).append((row[x_key], mean, std))
-    xs = sorted({row[x_key] for row in sweep["rows"]}, key=_sortable)
-    numeric = all(_sortable(x)[0] == 0 for x in xs)
+    xs = sorted({row[x_key] for row in sweep["rows"]}, key=sortable)
+    numeric = all(sortable(x)[0] == 0 for x in xs)
     fig, ax = plt.subplots(figsize=(6, 4), dpi=120)
     for label, points in lines.items():
-        points.sort(key=lambda p: _sortable(p[0]))
+        points.sort(key=lambda p: sortable(p[0]))
         pos = [p[0] if numeric else xs.index(p[0]) for p in points]
         ax.errorbar(pos, [p[1] for p in points], yerr=[p[2] for p in points], marker="o", capsize=3, label=label)
     if not numeric:

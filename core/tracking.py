@@ -93,6 +93,12 @@ class Tracker:
         if self._run is not None:
             self._run.log({key: self._wandb.Table(columns=columns, data=rows)})
 
+    def log_bars(self, key: str, label: str, value: str, bars: list[tuple[str, float]], title: str) -> None:
+        """A bar chart (wandb.plot.bar) of (label, value) pairs; its data table is logged under `key` too."""
+        if self._run is not None and bars:
+            table = self._wandb.Table(columns=[label, value], data=[list(b) for b in bars])
+            self._run.log({key: self._wandb.plot.bar(table, label, value, title=title)})
+
     def log_images(self, paths: Iterable[Path]) -> None:
         """One `plots/<file stem>` image per PNG (the report's plots)."""
         if self._run is not None:

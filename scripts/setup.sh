@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Set xicm up on a fresh Debian/Ubuntu machine; safe to run again (it skips what is done).
 #   - the Vulkan CPU driver (Mesa >= 23 lavapipe) when no usable Vulkan device exists
+#   - Debian's chromium and chromedriver (the report's browser test) when missing
 #   - a virtual environment in .venv
 #   - torch first (torch==2.13.0; XICM_TORCH_SPEC overrides), so no other package pulls a CUDA build
 #   - xicm itself, editable, with every extra (LLM, serving, tests)
@@ -15,6 +16,7 @@ if ! ldconfig -p | grep -q libavcodec; then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends ffmpeg >/dev/null
 fi
+bash scripts/install_chromium.sh
 
 PYTHON="${PYTHON:-python3}"
 if [ ! -x .venv/bin/python ]; then

@@ -103,7 +103,8 @@ SAMPLE_OVERRIDES = {
     "benchmark": "benchmark.tasks=[push_buttons]", "seeds": "seeds=[1]", "episodes": "episodes=2",
     "max_steps": "max_steps=5", "max_control_steps": "max_control_steps=40", "pool_path": "pool_path=/pools/other.h5",
     "paths": "paths.data=/elsewhere", "collect": "collect.workers=1", "export": "export.workers=1", "llm_cache": "llm_cache.enabled=false",
-    "tracking": "tracking.mode=disabled", "video": "video.fps=10", "transcripts": "transcripts=false",
+    "tracking": "tracking.mode=disabled", "video": "video.fps=10", "transcripts": "transcripts=false", "report": "report.html=false",
+    "serve": "serve.port=9000", "envs": "envs=2",
     "shards": "shards.workers=3", "progress": "progress=false", "run_name": "run_name=mine",
 }
 
