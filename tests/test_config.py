@@ -109,7 +109,7 @@ def test_cli_malformed_override_is_reported(tmp_path):
 
 def test_unknown_policy_stops_with_the_list():
     cfg = _compose(["policy.name=greedy"])
-    with pytest.raises(UnknownPluginError, match="unknown policy 'greedy'; available: oracle, xicm"):
+    with pytest.raises(UnknownPluginError, match="unknown policy 'greedy'; available: oracle, remote, xicm"):
         build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
