@@ -10,7 +10,9 @@ whether it observes at all (a served oracle does not: nothing is rendered betwee
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Dict, List, Optional
 
 from xicm.core.errors import ConfigError, EpisodeFailure
@@ -18,6 +20,8 @@ from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Policy
 from xicm.core.schema import above, at_least, one_of
 
+DEFAULT_IMAGES = MappingProxyType({"front": "observation/image"})  # camera -> request key (read-only)
+DEFAULT_STATE = ("joint_positions", "gripper_width")  # proprio fields, in order
 SPACES = ("auto", "key_pose", "key_joints", "ee_delta", "ee_pose", "joint_pos", "joint_delta")
 
 
@@ -123,21 +127,39 @@ class RemotePolicyOptions:
     api_key: Optional[str] = None
     action_space: str = field(default="auto", metadata=one_of(*SPACES))
     chunk_steps_to_execute: Optional[int] = field(default=None, metadata=at_least(1))  # null: the whole chunk
-    images: Dict[str, str] = field(default_factory=lambda: {"front": "observation/image"})  # camera -> request key
+    images: Dict[str, str] = field(default_factory=lambda: dict(DEFAULT_IMAGES))  # camera -> request key
     image_size: Optional[int] = field(default=None, metadata=at_least(1))  # null: as rendered
     state_key: Optional[str] = "observation/state"
-    state: List[str] = field(default_factory=lambda: ["joint_positions", "gripper_width"])  # proprio fields, in order
+    state: List[str] = field(default_factory=lambda: list(DEFAULT_STATE))  # proprio fields, in order
     prompt_key: Optional[str] = "prompt"
     gripper_open: float = 1.0  # the server's value for an open gripper
     gripper_closed: float = 0.0  # ... and for a closed one
 
 
-def create_remote_policy(context, **options) -> RemotePolicy:
-    from dataclasses import asdict
-
+def create_remote_policy(
+    context,
+    host: str = "127.0.0.1",
+    port: int | None = 8000,
+    timeout_s: float = 30.0,
+    api_key: str | None = None,
+    action_space: str = "auto",
+    chunk_steps_to_execute: int | None = None,
+    images: Mapping[str, str] = DEFAULT_IMAGES,
+    image_size: int | None = None,
+    state_key: str | None = "observation/state",
+    state: Sequence[str] = DEFAULT_STATE,
+    prompt_key: str | None = "prompt",
+    gripper_open: float = 1.0,
+    gripper_closed: float = 0.0,
+) -> RemotePolicy:
     from xicm.serving.client import PolicyClient, ServerError, server_uri
 
-    options = {**asdict(RemotePolicyOptions()), **options}
+    options = dict(
+        host=host, port=port, timeout_s=timeout_s, api_key=api_key, action_space=action_space,
+        chunk_steps_to_execute=chunk_steps_to_execute, images=dict(images),
+        image_size=image_size, state_key=state_key, state=list(state),
+        prompt_key=prompt_key, gripper_open=gripper_open, gripper_closed=gripper_closed,
+    )
     client = PolicyClient(server_uri(options["host"], options["port"]), options["timeout_s"], options["api_key"])
     try:
         client.connect()
