@@ -86,6 +86,8 @@ class Controller:
         self.limits = limits or MotionLimits()
         #: called once per control frame (task event tracking, e.g. which button went down)
         self.on_frame: Callable[[], None] | None = None
+        #: the GraspAttacher of `simulator.grasp: attach`, updated first in every control frame
+        self.grasp = None
         #: when a list, one Frame is appended per control frame
         self.recorder: list[Frame] | None = None
         self.frames = 0  # control frames stepped since the last reset
@@ -123,6 +125,8 @@ class Controller:
 
     def _end_frame(self) -> None:
         self.frames += 1
+        if self.grasp is not None:
+            self.grasp.update()
         if self.on_frame is not None:
             self.on_frame()
         if self.recorder is not None:

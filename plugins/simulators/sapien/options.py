@@ -3,8 +3,9 @@
 from dataclasses import dataclass, field
 from typing import Any, List
 
-from xicm.core.schema import above, rule
+from xicm.core.schema import above, one_of, rule
 
+GRASP_MODES = ("attach", "friction")
 CAMERA_NAMES = ("front", "left_shoulder", "right_shoulder", "overhead", "wrist")
 
 #: Vulkan guarantees 2D images up to 4096 pixels a side on every device (maxImageDimension2D);
@@ -40,3 +41,5 @@ class SapienOptions:
     render: bool = True
     lin_speed: float = field(default=0.35, metadata=above(0))  # m/s of the gripper along a straight line
     joint_speed: float = field(default=1.3, metadata=above(0))  # rad/s
+    #: attach: RLBench's rigid grasp of a graspable object (grasp.py); friction: finger friction only
+    grasp: str = field(default="attach", metadata=one_of(*GRASP_MODES))

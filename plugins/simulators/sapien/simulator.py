@@ -13,7 +13,9 @@ from xicm.core.types import JointAction, KeyAction, Observation, StepOutcome, Ta
 
 from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
+from .grasp import GraspAttacher
 from .objects import ObjectSet
+from .options import GRASP_MODES
 from .scene import TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
 
@@ -30,6 +32,8 @@ class SapienSimulator(Simulator):
             (False: always variation 0, what the unseen tasks are evaluated on).
         render: False builds a physics-only simulator (observe() is then unavailable).
         lin_speed, joint_speed: TCP (m/s) and joint (rad/s) speed limits of a move.
+        grasp: 'attach' (RLBench: a graspable object the closed fingers hold is fixed to the hand
+            until the gripper opens, grasp.py) or 'friction' (held by finger friction alone).
         tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
             those registered for simulator "sapien", handed over by Registry.create_simulator.
     """
@@ -46,6 +50,7 @@ class SapienSimulator(Simulator):
         render: bool = True,
         lin_speed: float = 0.35,
         joint_speed: float = 1.3,
+        grasp: str = "attach",
         *,
         tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
@@ -62,6 +67,11 @@ class SapienSimulator(Simulator):
             control_hz,
             MotionLimits(lin_speed=lin_speed, joint_speed=joint_speed),
         )
+        if grasp not in GRASP_MODES:
+            raise ValueError(f"simulator option grasp is '{grasp}'; allowed: {', '.join(GRASP_MODES)}")
+        self.grasp_mode = grasp
+        if grasp == "attach":
+            self.world.grasp = self.controller.grasp = GraspAttacher(self.world.scene, self.robot)
         self.sample_variations = bool(sample_variations)
         self.tasks = dict(tasks)
         self.task = None
@@ -89,11 +99,15 @@ class SapienSimulator(Simulator):
     def reset_state(self, task: str, seed: int, episode: int) -> None:
         """reset() without rendering (physics-only work such as collecting trajectories)."""
         cls = self._task_class(task)
+        if self.world.grasp is not None:
+            self.world.grasp.release()
         self.objects.clear()
         self.robot.reset()
         self.task = cls(self.world, self.objects)
         self.task.load()
         self.task.initialise(episode_rng(seed, task, episode), self.sample_variations)
+        if self.world.grasp is not None:
+            self.world.grasp.reset(self.task.graspable_ids())
         self.task_name, self.seed, self.episode = task, int(seed), int(episode)
         self.controller.on_frame = self.task.on_frame  # also drops a video frame callback
         self.controller.recorder = None

@@ -61,6 +61,9 @@ class Task(ABC):
     instruction: ClassVar[str]
     #: the objects described to the LLM, in prompt order
     object_names: ClassVar[tuple[str, ...]]
+    #: object names the gripper attaches in `simulator.grasp: attach` (RLBench's
+    #: register_graspable_objects); None: every dynamic actor of the task
+    graspable_objects: ClassVar[tuple[str, ...] | None] = None
 
     def __init__(self, world: World, objects: ObjectSet):
         self.world = world
@@ -100,8 +103,19 @@ class Task(ABC):
     def world_point(pose: sapien.Pose, local) -> np.ndarray:
         return np.asarray((pose * sapien.Pose(local)).p, dtype=float)
 
+    def graspable_ids(self) -> set[int]:
+        """Entity ids of the objects `simulator.grasp: attach` may attach to the hand."""
+        if self.graspable_objects is None:
+            return set(self.objects.movable_ids)
+        return {i for name in self.graspable_objects for i in self.objects.ids_of(name)}
+
     def grasped(self) -> set[int]:
-        """Entity ids that both fingers currently touch (what the gripper is holding)."""
+        """Entity ids that both fingers currently touch or that are attached to the hand
+        (what the gripper is holding)."""
+        held = set() if self.world.grasp is None else self.world.grasp.held_ids
+        return held | self._squeezed()
+
+    def _squeezed(self) -> set[int]:
         fingers = [f.entity for f in self.world.robot.fingers]
         touched: list[set[int]] = [set(), set()]
         for contact in self.world.scene.get_contacts():

@@ -83,6 +83,7 @@ class ScoopWithSpatula(Task):
     split = "level2"
     instruction = "scoop up the cube and lift it with the spatula"
     object_names = ("spatula", "cube")
+    graspable_objects = ("spatula",)  # only the tool is held (what it moves is not)
 
     def load(self) -> None:
         scene = self.world.scene

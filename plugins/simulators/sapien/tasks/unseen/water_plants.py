@@ -62,6 +62,7 @@ class WaterPlants(Task):
     split = "level2"
     instruction = "water plant"
     object_names = ("watering can", "plant")
+    graspable_objects = ("watering can",)  # only the tool is held (what it moves is not)
 
     def load(self) -> None:
         scene = self.world.scene
