@@ -35,6 +35,7 @@ class MotionLimits:
     rest_speed: float = 0.05  # rad/s: the arm counts as at rest below this on every joint
     settle_frames: int = 40  # at most this many control frames to come to rest
     gripper_frames: int = 12  # at most this many control frames to open/close
+    drop_frames: int = 10  # control frames after opening on an attached object (grasp: attach)
 
 
 @dataclass
@@ -289,6 +290,7 @@ class Controller:
         """Open or close the fingers and wait until they stop (fully open/closed, or holding)."""
         if open_ == self.robot.gripper_open:
             return
+        releasing = open_ and self.grasp is not None and self.grasp.held is not None
         self.robot.set_gripper_target(open_)
         for i in range(self.limits.gripper_frames):
             self.step_frame()
@@ -297,3 +299,6 @@ class Controller:
             still = float(np.max(np.abs(self.robot.qvel[ARM_JOINTS:]))) < 0.02
             if i >= 1 and (at_end or still):
                 break
+        if releasing:  # as RLBench after opening: a few more frames for the released object to drop
+            for _ in range(self.limits.drop_frames):
+                self.step_frame()
