@@ -6,6 +6,7 @@ from typing import Any, List
 from xicm.core.schema import above, one_of, rule
 
 GRASP_MODES = ("attach", "friction")
+SUCCESS_CHECKS = ("per_action", "per_frame")
 CAMERA_NAMES = ("front", "left_shoulder", "right_shoulder", "overhead", "wrist")
 
 #: Vulkan guarantees 2D images up to 4096 pixels a side on every device (maxImageDimension2D);
@@ -43,3 +44,5 @@ class SapienOptions:
     joint_speed: float = field(default=1.3, metadata=above(0))  # rad/s
     #: attach: RLBench's rigid grasp of a graspable object (grasp.py); friction: finger friction only
     grasp: str = field(default="attach", metadata=one_of(*GRASP_MODES))
+    #: per_frame: success read after every control frame, the move ends when it holds (RLBench)
+    success_check: str = field(default="per_action", metadata=one_of(*SUCCESS_CHECKS))

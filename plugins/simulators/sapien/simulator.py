@@ -15,7 +15,7 @@ from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
 from .grasp import GraspAttacher
 from .objects import ObjectSet
-from .options import GRASP_MODES
+from .options import GRASP_MODES, SUCCESS_CHECKS
 from .scene import TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
 
@@ -34,6 +34,9 @@ class SapienSimulator(Simulator):
         lin_speed, joint_speed: TCP (m/s) and joint (rad/s) speed limits of a move.
         grasp: 'attach' (RLBench: a graspable object the closed fingers hold is fixed to the hand
             until the gripper opens, grasp.py) or 'friction' (held by finger friction alone).
+        success_check: 'per_action' (the task's success is read after each key action or step) or
+            'per_frame' (after every control frame, as RLBench does during a move: the move ends
+            and the episode succeeds the moment it holds; a task's ordered conditions latch).
         tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
             those registered for simulator "sapien", handed over by Registry.create_simulator.
     """
@@ -51,6 +54,7 @@ class SapienSimulator(Simulator):
         lin_speed: float = 0.35,
         joint_speed: float = 1.3,
         grasp: str = "attach",
+        success_check: str = "per_action",
         *,
         tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
@@ -70,6 +74,10 @@ class SapienSimulator(Simulator):
         if grasp not in GRASP_MODES:
             raise ValueError(f"simulator option grasp is '{grasp}'; allowed: {', '.join(GRASP_MODES)}")
         self.grasp_mode = grasp
+        if success_check not in SUCCESS_CHECKS:
+            why = f"simulator option success_check is '{success_check}'; allowed: {', '.join(SUCCESS_CHECKS)}"
+            raise ValueError(why)
+        self.per_frame_success = success_check == "per_frame"
         if grasp == "attach":
             self.world.grasp = self.controller.grasp = GraspAttacher(self.world.scene, self.robot)
         self.sample_variations = bool(sample_variations)
@@ -110,6 +118,8 @@ class SapienSimulator(Simulator):
             self.world.grasp.reset(self.task.graspable_ids())
         self.task_name, self.seed, self.episode = task, int(seed), int(episode)
         self.controller.on_frame = self.task.on_frame  # also drops a video frame callback
+        self.task.latching = self.per_frame_success
+        self.controller.success_check = self.task.evaluate if self.per_frame_success else None
         self.controller.recorder = None
         # let objects settle under gravity before the episode starts
         for _ in range(self.controller.substeps * 2):
@@ -181,6 +191,8 @@ class SapienSimulator(Simulator):
             self._require_task()
             if isinstance(action, JointAction):
                 return self._execute_joints(action)
+            if self.controller.halted:  # succeeded in an earlier frame: nothing more to do
+                return StepOutcome(ok=True, success=True)
             problem = self.check_pose(action)
             if problem is not None:
                 return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=problem)
@@ -190,7 +202,8 @@ class SapienSimulator(Simulator):
                 self.controller.move_to(target)
             except Unreachable as exc:
                 return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=str(exc))
-            self.controller.set_gripper(bool(action.gripper_open))
+            if not self.controller.halted:
+                self.controller.set_gripper(bool(action.gripper_open))
             return StepOutcome(ok=True, success=self.is_success())
         except Exception as exc:  # noqa: BLE001 - a simulator failure must not crash the run
             return StepOutcome(False, False, error_kind="sim_error", error_message=f"{type(exc).__name__}: {exc}")
@@ -207,7 +220,8 @@ class SapienSimulator(Simulator):
             why = f"joint target outside the Panda's limits at joint(s) {bad}"
             return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=why)
         self.controller.move_joints(q)
-        self.controller.set_gripper(bool(action.gripper_open))
+        if not self.controller.halted:
+            self.controller.set_gripper(bool(action.gripper_open))
         return StepOutcome(ok=True, success=self.is_success())
 
     def set_frame_callback(self, callback) -> bool:
@@ -228,7 +242,7 @@ class SapienSimulator(Simulator):
 
     def is_success(self) -> bool:
         self._require_task()
-        return bool(self.task.evaluate())
+        return self.controller.halted or bool(self.task.evaluate())
 
     def scripted_solution(self):
         self._require_task()

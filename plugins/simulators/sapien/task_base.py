@@ -70,6 +70,10 @@ class Task(ABC):
         self.objects = objects
         self.variation = 0
         self.episode_instruction = self.instruction
+        #: `simulator.success_check: per_frame`: conditions RLBench checks in order (an ordered
+        #: ConditionSet) keep each one met once it was (see ordered())
+        self.latching = False
+        self._met_in_order: dict[str, int] = {}
 
     # --- to implement ----------------------------------------------------------------------
     @abstractmethod
@@ -92,6 +96,18 @@ class Task(ABC):
         """Key actions of the scripted demonstrator, computed from the true state as it goes."""
 
     # --- helpers ---------------------------------------------------------------------------
+    def ordered(self, name: str, *conditions) -> bool:
+        """Whether the `conditions` (callables) hold in order, as RLBench's ConditionSet with
+        order_matters: with `latching` each one stays met once it was, in the order given (a
+        later one counts only after the earlier ones); without it they must all hold now."""
+        if not self.latching:
+            return all(c() for c in conditions)
+        done = self._met_in_order.get(name, 0)
+        while done < len(conditions) and conditions[done]():
+            done += 1
+        self._met_in_order[name] = done
+        return done == len(conditions)
+
     @staticmethod
     def key(position, quat_wxyz=GRIPPER_DOWN_WXYZ, gripper_open: bool = True) -> KeyAction:
         p = np.asarray(position, dtype=float)

@@ -16,7 +16,8 @@ Randomisations:
 
 Success conditions:
     The knife lies on the board (its centre over the board and less than 3 cm above the
-    board's top) AND nothing is grasped.
+    board's top) AND nothing is grasped. With `simulator.success_check: per_frame` the two
+    latch in that order, as RLBench's ordered ConditionSet: on the board once, then let go.
 """
 
 from __future__ import annotations
@@ -112,7 +113,8 @@ class PutKnifeOnChoppingBoard(Task):
         return bool(over and 0.0 < local[2] - 2 * BOARD_HALF[2] < 0.03)
 
     def evaluate(self) -> bool:
-        return self.on_board() and not self.grasped()
+        # RLBench: an ordered ConditionSet (on the board, then nothing grasped)
+        return self.ordered("placed", self.on_board, lambda: not self.grasped())
 
     def demonstration(self):
         knife = self.knife.pose
