@@ -12,6 +12,7 @@ from typing import Any, Dict, List, Optional
 
 from omegaconf import MISSING
 
+from xicm.core.instructions import INSTRUCTION_CHOICES
 from xicm.core.schema import at_least, number, one_of, rule
 
 #: episode_rng keeps 32 bits of a seed (xicm.core.seeding), so larger or negative seeds would
@@ -83,6 +84,9 @@ class Benchmark:
     tasks: List[str] = field(default=MISSING, metadata=rule(_names, "a non-empty list of distinct task names"))
     pool: str = MISSING
     pool_tasks: List[str] = MISSING
+    #: agnostos: each task's AGNOSTOS instruction; sampled: one of its variation-0 phrasings per
+    #: episode, drawn from the episode's seed stream (language-robustness studies)
+    instructions: str = field(default="agnostos", metadata=one_of(*INSTRUCTION_CHOICES))
 
 
 @dataclass

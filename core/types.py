@@ -60,6 +60,8 @@ class TaskInfo:
     split: str
     instruction: str
     object_names: tuple[str, ...]
+    #: every phrasing of variation 0, the instruction first (a task attribute `phrasings`)
+    phrasings: tuple[str, ...] = ()
 
     @classmethod
     def of(cls, name: str, task: Any) -> TaskInfo:
@@ -69,7 +71,8 @@ class TaskInfo:
             from xicm.core.errors import ConfigError
 
             raise ConfigError(f"task '{name}' has no {', '.join(missing)} (a task class declares split, instruction and object_names)")
-        return cls(name, task.split, task.instruction, tuple(task.object_names))
+        phrasings = tuple(getattr(task, "phrasings", ())) or (task.instruction,)
+        return cls(name, task.split, task.instruction, tuple(task.object_names), phrasings)
 
 
 @dataclass

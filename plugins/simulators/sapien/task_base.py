@@ -61,6 +61,9 @@ class Task(ABC):
     instruction: ClassVar[str]
     #: the objects described to the LLM, in prompt order
     object_names: ClassVar[tuple[str, ...]]
+    #: every phrasing of variation 0 (the instruction first; RLBench's list), for
+    #: benchmark.instructions: sampled; empty: the instruction only
+    phrasings: ClassVar[tuple[str, ...]] = ()
     #: object names the gripper attaches in `simulator.grasp: attach` (RLBench's
     #: register_graspable_objects); None: every dynamic actor of the task
     graspable_objects: ClassVar[tuple[str, ...] | None] = None

@@ -33,6 +33,7 @@ class LazyTask:
     split = property(lambda self: self.task_class.split)
     instruction = property(lambda self: self.task_class.instruction)
     object_names = property(lambda self: self.task_class.object_names)
+    phrasings = property(lambda self: self.task_class.phrasings)
 
     def __call__(self, *args, **kwargs):
         return self.task_class(*args, **kwargs)

@@ -37,6 +37,15 @@ class BasketballInHoop(Task):
     name = "basketball_in_hoop"
     split = "level2"
     instruction = "put the ball in the hoop"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put the ball in the hoop",
+        "play basketball",
+        "shoot the ball through the net",
+        "pick up the basketball and put it in the hoop",
+        "throw the basketball through the hoop",
+        "place the basket ball through the hoop",
+    )
     object_names = ("ball", "hoop")
 
     def load(self) -> None:

@@ -34,6 +34,12 @@ class CloseLaptopLid(Task):
     name = "close_laptop_lid"
     split = "level1"
     instruction = "close laptop lid"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "close laptop lid",
+        "close the laptop",
+        "shut the laptop lid",
+    )
     object_names = ("laptop", "laptop lid")
 
     def load(self) -> None:

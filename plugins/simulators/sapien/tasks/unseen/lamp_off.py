@@ -138,4 +138,12 @@ class LampTask(Task):
 class LampOff(LampTask):
     name = "lamp_off"
     instruction = "turn off the light"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "turn off the light",
+        "press the button to turn off the lamp",
+        "press the light switch",
+        "turn the lamp off",
+        "close the gripper and press on the button until the light turns off",
+    )
     start_lit = True

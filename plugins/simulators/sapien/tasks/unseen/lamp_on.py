@@ -24,4 +24,12 @@ from .lamp_off import LampTask
 class LampOn(LampTask):
     name = "lamp_on"
     instruction = "turn on the light"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "turn on the light",
+        "press the button to turn on the lamp",
+        "press the light switch",
+        "turn the lamp on",
+        "close the gripper and press on the button until the light turns on",
+    )
     start_lit = False

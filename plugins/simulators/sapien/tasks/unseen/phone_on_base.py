@@ -40,6 +40,15 @@ class PhoneOnBase(Task):
     name = "phone_on_base"
     split = "level1"
     instruction = "put the phone on the base"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put the phone on the base",
+        "put the phone on the stand",
+        "put the hone on the hub",
+        "grasp the phone and put it on the base",
+        "place the phone on the base",
+        "put the phone back on the base",
+    )
     object_names = ("phone", "phone base")
 
     def load(self) -> None:

@@ -49,6 +49,14 @@ class PutKnifeOnChoppingBoard(Task):
     name = "put_knife_on_chopping_board"
     split = "level1"
     instruction = "put the knife on the chopping board"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put the knife on the chopping board",
+        "slide the knife out of the knife block and put it down on the chopping board",
+        "place the knife on the chopping board",
+        "pick up the knife and leave it on the chopping board",
+        "move the knife from the holder to the chopping board",
+    )
     object_names = ("knife", "knife block", "chopping board")
 
     def load(self) -> None:

@@ -40,6 +40,12 @@ class PutToiletRollOnStand(Task):
     name = "put_toilet_roll_on_stand"
     split = "level1"
     instruction = "put toilet roll on stand"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put toilet roll on stand",
+        "place the toilet roll on the stand",
+        "slide the roll onto its holder",
+    )
     object_names = ("toilet roll", "toilet roll stand")
 
     def load(self) -> None:

@@ -43,6 +43,13 @@ class PutUmbrellaInUmbrellaStand(Task):
     name = "put_umbrella_in_umbrella_stand"
     split = "level1"
     instruction = "put umbrella in umbrella stand"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put umbrella in umbrella stand",
+        "pick up the umbrella and drop it in its stand",
+        "use the handle to lift the umbrella and place it in its holder",
+        "set the umbrella down inside the umbrella stand",
+    )
     object_names = ("umbrella", "umbrella stand")
 
     def load(self) -> None:

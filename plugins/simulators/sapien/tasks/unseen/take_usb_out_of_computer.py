@@ -39,6 +39,14 @@ class TakeUsbOutOfComputer(Task):
     name = "take_usb_out_of_computer"
     split = "level2"
     instruction = "take usb out of computer"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "take usb out of computer",
+        "remove the usb stick from its port",
+        "retrieve the usb stick",
+        "grasp the usb stick and slide it out of the pc",
+        "get a hold of the usb stick and pull it out of the desktop computer",
+    )
     object_names = ("computer", "usb stick")
 
     def load(self) -> None:

@@ -49,6 +49,16 @@ class TurnOvenOn(Task):
     name = "turn_oven_on"
     split = "level2"
     instruction = "turn on the oven"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "turn on the oven",
+        "grip the left most knob on the oven and rotate it anti-clockwise to turn the oven on",
+        "turn the left most knob on the oven to switch the oven on",
+        "heat up the oven",
+        "get the oven hot",
+        "preheat the oven",
+        "get the oven heat going",
+    )
     object_names = ("oven", "left oven knob", "right oven knob")
 
     def load(self) -> None:
