@@ -25,5 +25,6 @@ def episode_instruction(simulator, obs: Observation, task: str, seed: int, episo
     if mode == "agnostos" or obs.instruction != info.instruction:  # another variation keeps its own
         return lambda o: o
     rng = episode_rng(seed, task, episode, stream="instruction")
-    text = info.phrasings[int(rng.integers(len(info.phrasings)))]
+    phrasings = info.phrasings or (info.instruction,)
+    text = phrasings[int(rng.integers(len(phrasings)))]
     return lambda o: dataclasses.replace(o, instruction=text)

@@ -60,7 +60,7 @@ class TaskInfo:
     split: str
     instruction: str
     object_names: tuple[str, ...]
-    #: every phrasing of variation 0, the instruction first (a task attribute `phrasings`)
+    #: every phrasing of variation 0, the instruction first (a task attribute `phrasings`; empty: the instruction only)
     phrasings: tuple[str, ...] = ()
 
     @classmethod
@@ -71,8 +71,7 @@ class TaskInfo:
             from xicm.core.errors import ConfigError
 
             raise ConfigError(f"task '{name}' has no {', '.join(missing)} (a task class declares split, instruction and object_names)")
-        phrasings = tuple(getattr(task, "phrasings", ())) or (task.instruction,)
-        return cls(name, task.split, task.instruction, tuple(task.object_names), phrasings)
+        return cls(name, task.split, task.instruction, tuple(task.object_names), tuple(getattr(task, "phrasings", ())))
 
 
 @dataclass
