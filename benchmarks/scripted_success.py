@@ -5,6 +5,7 @@ recorded trajectory with the AGNOSTOS key-frame rule, quantise them to the 1 cm 
 text grid, reset the same episode and execute them. Physics only (no rendering).
 
     python benchmarks/scripted_success.py [--seeds 50] [--first-seed 0] [--grasp attach|friction]
+        [--success-check per_action|per_frame]
         [--tasks open_drawer push_buttons ...]
 """
 
@@ -27,6 +28,7 @@ def main() -> None:
     parser.add_argument("--fixed-variation", action="store_true", help="always variation 0")
     parser.add_argument("--physics-hz", type=float, default=200.0)
     parser.add_argument("--grasp", choices=("attach", "friction"), default="attach", help="simulator.grasp mode")
+    parser.add_argument("--success-check", choices=("per_action", "per_frame"), default="per_action")
     parser.add_argument("--first-seed", type=int, default=0, help="first seed (to run a range in chunks)")
     args = parser.parse_args()
 
@@ -36,6 +38,7 @@ def main() -> None:
         "sample_variations": not args.fixed_variation,
         "physics_hz": args.physics_hz,
         "grasp": args.grasp,
+        "success_check": args.success_check,
     }
     sim = get_registry().create_simulator(options)
     tasks = args.tasks or sim.task_names()
