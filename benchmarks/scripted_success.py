@@ -4,7 +4,9 @@ For every task and seed: reset, run the scripted demonstrator, read the key acti
 recorded trajectory with the AGNOSTOS key-frame rule, quantise them to the 1 cm / 5 degree
 text grid, reset the same episode and execute them. Physics only (no rendering).
 
-    python benchmarks/scripted_success.py [--seeds 50] [--tasks open_drawer push_buttons ...]
+    python benchmarks/scripted_success.py [--seeds 50] [--first-seed 0] [--grasp attach|friction]
+        [--success-check per_action|per_frame]
+        [--tasks open_drawer push_buttons ...]
 """
 
 from __future__ import annotations
@@ -20,14 +22,24 @@ def main() -> None:
     from xicm.core.plugins import get_registry
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=50, help="seeds per task (episode 0 of seeds 0..N-1)")
+    parser.add_argument("--seeds", type=int, default=50, help="seeds per task (episode 0 of seeds first-seed .. first-seed+N-1)")
     parser.add_argument("--tasks", nargs="*", default=None, help="tasks to run (default: all)")
     parser.add_argument("--no-replay", action="store_true", help="only run the demonstrators")
     parser.add_argument("--fixed-variation", action="store_true", help="always variation 0")
     parser.add_argument("--physics-hz", type=float, default=200.0)
+    parser.add_argument("--grasp", choices=("attach", "friction"), default="attach", help="simulator.grasp mode")
+    parser.add_argument("--success-check", choices=("per_action", "per_frame"), default="per_action")
+    parser.add_argument("--first-seed", type=int, default=0, help="first seed (to run a range in chunks)")
     args = parser.parse_args()
 
-    options = {"name": "sapien", "render": False, "sample_variations": not args.fixed_variation, "physics_hz": args.physics_hz}
+    options = {
+        "name": "sapien",
+        "render": False,
+        "sample_variations": not args.fixed_variation,
+        "physics_hz": args.physics_hz,
+        "grasp": args.grasp,
+        "success_check": args.success_check,
+    }
     sim = get_registry().create_simulator(options)
     tasks = args.tasks or sim.task_names()
     print(f"{'task':<18} {'demo ok':>9} {'replay ok':>10} {'raw replay':>11} {'frames':>7} {'keys':>5} {'s/demo':>7}")
@@ -35,7 +47,7 @@ def main() -> None:
         demo_ok = replay_ok = raw_ok = 0
         frames, keys, secs = [], [], []
         failures = []
-        for seed in range(args.seeds):
+        for seed in range(args.first_seed, args.first_seed + args.seeds):
             t0 = time.perf_counter()
             sim.reset_state(task, seed, 0)
             traj = sim.demonstrate()

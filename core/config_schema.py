@@ -12,6 +12,7 @@ from typing import Any, Dict, List, Optional
 
 from omegaconf import MISSING
 
+from xicm.core.instructions import INSTRUCTION_CHOICES
 from xicm.core.schema import at_least, number, one_of, rule
 
 #: episode_rng keeps 32 bits of a seed (xicm.core.seeding), so larger or negative seeds would
@@ -117,6 +118,9 @@ class Benchmark:
     #: zero: every episode on variation 0; sampled: a variation per episode from its seed (as in
     #: collection); null: the simulator's own setting (sapien: sample_variations, default true)
     variations: Optional[str] = field(default=None, metadata=one_of("zero", "sampled"))
+    #: agnostos: each task's AGNOSTOS instruction; sampled: one of its variation-0 phrasings per
+    #: episode, drawn from the episode's seed stream (language-robustness studies)
+    instructions: str = field(default="agnostos", metadata=one_of(*INSTRUCTION_CHOICES))
 
 
 @dataclass

@@ -18,6 +18,7 @@ import traceback
 from pathlib import Path
 
 from xicm.core.errors import EpisodeFailure, LLMError
+from xicm.core.instructions import episode_instruction
 from xicm.core.interfaces import Policy, Simulator
 from xicm.core.seeding import episode_rng
 from xicm.core.transcripts import write_transcript
@@ -35,16 +36,18 @@ def run_episode(
     max_control_steps: int | None = None,
     video: VideoSettings | None = None,
     transcripts_dir: Path | None = None,
+    instructions: str = "agnostos",
 ) -> EpisodeResult:
     """`video`: record the rollout (core/video.py); `transcripts_dir`: the run folder under which
-    the policy's prompts and replies, if it keeps them (record()["transcript"]), are written."""
+    the policy's prompts and replies, if it keeps them (record()["transcript"]), are written;
+    `instructions`: benchmark.instructions (core/instructions.py)."""
     result = EpisodeResult(task=task, seed=int(seed), episode=int(episode), success=False, steps=0)
     timings: dict[str, float] = {}
     start = time.perf_counter()
     recorder = None if video is None else EpisodeVideo(video, task, seed, episode)
     try:
         budgets = Budgets(int(max_steps), max_control_steps, simulator, task)
-        _loop(simulator, policy, result, budgets, timings, recorder)
+        _loop(simulator, policy, result, budgets, timings, recorder, instructions)
     except EpisodeFailure as failure:
         result.error_kind, result.error_message = failure.kind, failure.message
     except LLMError as exc:
@@ -112,7 +115,13 @@ class Budgets:
 
 
 def _loop(
-    simulator: Simulator, policy: Policy, result: EpisodeResult, budgets: Budgets, timings: dict, video: EpisodeVideo | None
+    simulator: Simulator,
+    policy: Policy,
+    result: EpisodeResult,
+    budgets: Budgets,
+    timings: dict,
+    video: EpisodeVideo | None,
+    instructions: str = "agnostos",
 ) -> None:
     def timed(stage: str, fn, *args):
         t0 = time.perf_counter()
@@ -125,6 +134,8 @@ def _loop(
         obs = timed("reset", simulator.reset, result.task, result.seed, result.episode)
     except Exception as exc:
         raise EpisodeFailure("sim_error", f"reset failed: {type(exc).__name__}: {exc}") from exc
+    reword = episode_instruction(simulator, obs, result.task, result.seed, result.episode, instructions)
+    obs = reword(obs)
     if video is not None:
         video.start(simulator, obs)
     policy.on_episode(result.task, result.seed, result.episode)
@@ -152,7 +163,7 @@ def _loop(
         if not policy.observes:
             continue  # it reads the true state instead: do not render for nothing
         try:
-            obs = timed("observe", simulator.observe)
+            obs = reword(timed("observe", simulator.observe))
         except Exception as exc:
             raise EpisodeFailure("sim_error", f"observe failed: {type(exc).__name__}: {exc}") from exc
     raise budgets.failure()

@@ -31,9 +31,15 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     keys = episode_keys(tasks, cfg.seeds, cfg.episodes)
     transcripts_dir = out_dir if cfg.get("transcripts", True) else None
     with episode_runner(
-        shards, cfg, out_dir, keys, max_steps=int(cfg.max_steps),
+        shards,
+        cfg,
+        out_dir,
+        keys,
+        max_steps=int(cfg.max_steps),
         max_control_steps=cfg.get("max_control_steps"),
-        video=video, transcripts_dir=transcripts_dir
+        video=video,
+        transcripts_dir=transcripts_dir,
+        instructions=str(cfg.benchmark.get("instructions", "agnostos")),
     ) as runner:
         write_json_atomic(
             RunDir(out_dir).meta,

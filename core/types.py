@@ -75,6 +75,8 @@ class TaskInfo:
     object_names: tuple[str, ...]
     #: default budget of per-step policies (control steps), None where the task declares none
     max_control_steps: int | None = None
+    #: every phrasing of variation 0, the instruction first (a task attribute `phrasings`; empty: the instruction only)
+    phrasings: tuple[str, ...] = ()
 
     @classmethod
     def of(cls, name: str, task: Any) -> TaskInfo:
@@ -86,7 +88,8 @@ class TaskInfo:
 
             raise ConfigError(f"task '{name}' has no {', '.join(missing)} (a task class declares split, instruction and object_names)")
         budget = getattr(task, "max_control_steps", None)
-        return cls(name, task.split, task.instruction, tuple(task.object_names), None if budget is None else int(budget))
+        return cls(name, task.split, task.instruction, tuple(task.object_names), None if budget is None else int(budget),
+                   tuple(getattr(task, "phrasings", ())))
 
 
 @dataclass

@@ -35,6 +35,7 @@ class MotionLimits:
     rest_speed: float = 0.05  # rad/s: the arm counts as at rest below this on every joint
     settle_frames: int = 40  # at most this many frames to come to rest
     gripper_frames: int = 12  # at most this many frames to open/close
+    drop_frames: int = 10  # frames after opening on an attached object (grasp: attach)
 
 
 @dataclass
@@ -86,6 +87,12 @@ class Controller:
         self.limits = limits or MotionLimits()
         #: called once per frame (task event tracking, e.g. which button went down)
         self.on_frame: Callable[[], None] | None = None
+        #: the GraspAttacher of `simulator.grasp: attach`, updated first in every frame
+        self.grasp = None
+        #: `simulator.success_check: per_frame`: the task's success, asked after every frame;
+        #: once it holds the controller halts (RLBench ends the move the moment the task succeeds)
+        self.success_check: Callable[[], bool] | None = None
+        self.halted = False
         #: when a list, one Frame is appended per frame
         self.recorder: list[Frame] | None = None
         self.frames = 0  # frames stepped since the last reset
@@ -97,6 +104,7 @@ class Controller:
 
     def reset(self) -> None:
         self.frames = 0
+        self.halted = False
         self._hold_q = self.robot.arm_qpos()
         self.frame_qvel = np.zeros(ARM_JOINTS)
 
@@ -123,10 +131,14 @@ class Controller:
 
     def _end_frame(self) -> None:
         self.frames += 1
+        if self.grasp is not None:
+            self.grasp.update()
         if self.on_frame is not None:
             self.on_frame()
         if self.recorder is not None:
             self.recorder.append(self.snapshot())
+        if self.success_check is not None and not self.halted and self.success_check():
+            self.halted = True
 
     # --- planning --------------------------------------------------------------------------
     def plan(self, target: sapien.Pose) -> np.ndarray:
@@ -240,6 +252,10 @@ class Controller:
                 self.robot.set_arm_target(q, qd)
                 self._physics_step(sub == self.substeps - 1)
             self._end_frame()
+            if self.halted:  # the task succeeded part-way: hold the arm where it is
+                self._hold_q = self.robot.arm_qpos()
+                self.robot.set_arm_target(self._hold_q, np.zeros(ARM_JOINTS))
+                return
         self._hold_q = path[-1].copy()
         self.robot.set_arm_target(self._hold_q, np.zeros(ARM_JOINTS))
         self.settle()
@@ -254,6 +270,8 @@ class Controller:
         lim = self.limits
         slow = 0
         for _ in range(lim.settle_frames):
+            if self.halted:
+                return
             speed = float(np.max(np.abs(self.frame_qvel)))
             slow = slow + 1 if speed < 0.1 else 0
             if speed < lim.rest_speed or slow >= 3:
@@ -302,11 +320,17 @@ class Controller:
         """Open or close the fingers and wait until they stop (fully open/closed, or holding)."""
         if open_ == self.robot.gripper_open:
             return
+        releasing = open_ and self.grasp is not None and self.grasp.held is not None
         self.robot.set_gripper_target(open_)
         for i in range(self.limits.gripper_frames):
             self.step_frame()
             width = self.robot.finger_width()
             at_end = width > 2 * 0.04 - 1e-3 if open_ else width < 1e-3
             still = float(np.max(np.abs(self.robot.qvel[ARM_JOINTS:]))) < 0.02
-            if i >= 1 and (at_end or still):
+            if self.halted or (i >= 1 and (at_end or still)):
                 break
+        if releasing and not self.halted:  # as RLBench after opening: a few more frames for the released object to drop
+            for _ in range(self.limits.drop_frames):
+                self.step_frame()
+                if self.halted:
+                    break

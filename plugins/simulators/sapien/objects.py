@@ -73,6 +73,8 @@ class ObjectSet:
         self.segment_names: dict[int, str] = {}
         self.actors: list[sapien.Entity] = []
         self.articulations: list[sapien.physx.PhysxArticulation] = []
+        #: entity ids of the dynamic actors (the default graspable objects of a task)
+        self.movable_ids: set[int] = set()
 
     def actor(self, builder, object_name: str, kind: str = "dynamic", pose: sapien.Pose | None = None) -> sapien.Entity:
         builder.set_name(object_name)
@@ -83,6 +85,8 @@ class ObjectSet:
         )
         self.actors.append(entity)
         self.segment_names[entity.per_scene_id] = object_name
+        if kind == "dynamic":
+            self.movable_ids.add(entity.per_scene_id)
         return entity
 
     def articulation(
@@ -108,6 +112,7 @@ class ObjectSet:
         self.actors.clear()
         self.articulations.clear()
         self.segment_names.clear()
+        self.movable_ids.clear()
 
     def ids_of(self, object_name: str) -> list[int]:
         return [i for i, n in self.segment_names.items() if n == object_name]

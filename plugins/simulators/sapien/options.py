@@ -5,6 +5,8 @@ from typing import Any, List
 
 from xicm.core.schema import above, one_of, rule
 
+GRASP_MODES = ("attach", "friction")
+SUCCESS_CHECKS = ("per_action", "per_frame")
 CAMERA_NAMES = ("front", "left_shoulder", "right_shoulder", "overhead", "wrist")
 #: per-step action spaces of `step(action)` (control_modes.py has their layouts)
 CONTROL_MODES = ("ee_delta", "ee_pose", "joint_pos", "joint_delta")
@@ -73,6 +75,10 @@ class SapienOptions:
     render: bool = True
     lin_speed: float = field(default=0.35, metadata=above(0))  # m/s of the gripper along a straight line
     joint_speed: float = field(default=1.3, metadata=above(0))  # rad/s
+    #: attach: RLBench's rigid grasp of a graspable object (grasp.py); friction: finger friction only
+    grasp: str = field(default="attach", metadata=one_of(*GRASP_MODES))
+    #: per_frame: success read after every control frame, the move ends when it holds (RLBench)
+    success_check: str = field(default="per_action", metadata=one_of(*SUCCESS_CHECKS))
 
 
 def frames_per_step(frame_hz: float, control_hz: float) -> int:

@@ -43,6 +43,8 @@ class World:
             else None
         )
         self.static_ids = {self.table.per_scene_id, self.ground.per_scene_id}
+        #: the GraspAttacher of `simulator.grasp: attach` (None: objects are held by friction)
+        self.grasp = None
 
     def _build_static(self) -> None:
         floor = sapien.render.RenderMaterial(base_color=[0.45, 0.42, 0.40, 1.0])

@@ -22,8 +22,9 @@ from xicm.core.types import (
 from . import control_modes
 from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
-from .options import CONTROL_MODES, frames_per_step, sizes_per_camera
+from .grasp import GraspAttacher
 from .objects import ObjectSet
+from .options import CONTROL_MODES, GRASP_MODES, SUCCESS_CHECKS, frames_per_step, sizes_per_camera
 from .robot import ARM_JOINTS
 from .scene import TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
@@ -47,6 +48,11 @@ class SapienSimulator(Simulator):
         depth, segmentation: read those pictures too (False: CameraFrame.depth / .segmentation are None).
         render: False builds a physics-only simulator (observe() is then unavailable).
         lin_speed, joint_speed: TCP (m/s) and joint (rad/s) speed limits of a move.
+        grasp: 'attach' (RLBench: a graspable object the closed fingers hold is fixed to the hand
+            until the gripper opens, grasp.py) or 'friction' (held by finger friction alone).
+        success_check: 'per_action' (the task's success is read after each key action or step) or
+            'per_frame' (after every control frame, as RLBench does during a move: the move ends
+            and the episode succeeds the moment it holds; a task's ordered conditions latch).
         tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
             those registered for simulator "sapien", handed over by Registry.create_simulator.
     """
@@ -67,6 +73,8 @@ class SapienSimulator(Simulator):
         segmentation: bool = True,
         lin_speed: float = 0.35,
         joint_speed: float = 1.3,
+        grasp: str = "attach",
+        success_check: str = "per_action",
         *,
         tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
@@ -91,6 +99,15 @@ class SapienSimulator(Simulator):
         self.frames_per_step = frames_per_step(frame_hz, control_hz)
         self.control_hz = float(control_hz)
         self.control_mode = control_modes.check_mode(str(control_mode))
+        if grasp not in GRASP_MODES:
+            raise ValueError(f"simulator option grasp is '{grasp}'; allowed: {', '.join(GRASP_MODES)}")
+        self.grasp_mode = grasp
+        if success_check not in SUCCESS_CHECKS:
+            why = f"simulator option success_check is '{success_check}'; allowed: {', '.join(SUCCESS_CHECKS)}"
+            raise ValueError(why)
+        self.per_frame_success = success_check == "per_frame"
+        if grasp == "attach":
+            self.world.grasp = self.controller.grasp = GraspAttacher(self.world.scene, self.robot)
         self.sample_variations = bool(sample_variations)
         self.tasks = dict(tasks)
         self.task = None
@@ -118,13 +135,19 @@ class SapienSimulator(Simulator):
     def reset_state(self, task: str, seed: int, episode: int) -> None:
         """reset() without rendering (physics-only work such as collecting trajectories)."""
         cls = self._task_class(task)
+        if self.world.grasp is not None:
+            self.world.grasp.release()
         self.objects.clear()
         self.robot.reset()
         self.task = cls(self.world, self.objects)
         self.task.load()
         self.task.initialise(episode_rng(seed, task, episode), self.sample_variations)
+        if self.world.grasp is not None:
+            self.world.grasp.reset(self.task.graspable_ids())
         self.task_name, self.seed, self.episode = task, int(seed), int(episode)
         self.controller.on_frame = self.task.on_frame  # also drops a video frame callback
+        self.task.latching = self.per_frame_success
+        self.controller.success_check = self.task.evaluate if self.per_frame_success else None
         self.controller.recorder = None
         # let objects settle under gravity before the episode starts
         for _ in range(self.controller.substeps * 2):
@@ -211,6 +234,8 @@ class SapienSimulator(Simulator):
             self._require_task()
             if isinstance(action, JointAction):
                 return self._execute_joints(action)
+            if self.controller.halted:  # succeeded in an earlier frame: nothing more to do
+                return StepOutcome(ok=True, success=True)
             problem = self.check_pose(action)
             if problem is not None:
                 return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=problem)
@@ -220,7 +245,8 @@ class SapienSimulator(Simulator):
                 self.controller.move_to(target)
             except Unreachable as exc:
                 return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=str(exc))
-            self.controller.set_gripper(bool(action.gripper_open))
+            if not self.controller.halted:
+                self.controller.set_gripper(bool(action.gripper_open))
             return StepOutcome(ok=True, success=self.is_success())
         except Exception as exc:  # noqa: BLE001 - a simulator failure must not crash the run
             return StepOutcome(False, False, error_kind="sim_error", error_message=f"{type(exc).__name__}: {exc}")
@@ -237,7 +263,8 @@ class SapienSimulator(Simulator):
             why = f"joint target outside the Panda's limits at joint(s) {bad}"
             return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=why)
         self.controller.move_joints(q)
-        self.controller.set_gripper(bool(action.gripper_open))
+        if not self.controller.halted:
+            self.controller.set_gripper(bool(action.gripper_open))
         return StepOutcome(ok=True, success=self.is_success())
 
     # --- per-step control -------------------------------------------------------------------
@@ -251,6 +278,8 @@ class SapienSimulator(Simulator):
             values, problem = control_modes.parse(self.control_mode, action)
             if problem is not None:
                 return StepOutcome(False, self.is_success(), error_kind="bad_action", error_message=problem)
+            if self.controller.halted:  # succeeded in an earlier frame (success_check: per_frame)
+                return StepOutcome(ok=True, success=True)
             target, problem = self._arm_target(values)
             if problem is not None:
                 return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=problem)
@@ -374,7 +403,7 @@ class SapienSimulator(Simulator):
 
     def is_success(self) -> bool:
         self._require_task()
-        return bool(self.task.evaluate())
+        return self.controller.halted or bool(self.task.evaluate())
 
     def scripted_solution(self):
         self._require_task()

@@ -64,12 +64,22 @@ class Task(ABC):
     #: control steps a per-step policy gets by default: ceil(2 x the longest scripted demo
     #: measured by benchmarks/demo_lengths.py at control_hz 10), see docs/DESIGN.md
     max_control_steps: ClassVar[int]
+    #: every phrasing of variation 0 (the instruction first; RLBench's list), for
+    #: benchmark.instructions: sampled; empty: the instruction only
+    phrasings: ClassVar[tuple[str, ...]] = ()
+    #: object names the gripper attaches in `simulator.grasp: attach` (RLBench's
+    #: register_graspable_objects); None: every dynamic actor of the task
+    graspable_objects: ClassVar[tuple[str, ...] | None] = None
 
     def __init__(self, world: World, objects: ObjectSet):
         self.world = world
         self.objects = objects
         self.variation = 0
         self.episode_instruction = self.instruction
+        #: `simulator.success_check: per_frame`: conditions RLBench checks in order (an ordered
+        #: ConditionSet) keep each one met once it was (see ordered())
+        self.latching = False
+        self._met_in_order: dict[str, int] = {}
 
     # --- to implement ----------------------------------------------------------------------
     @abstractmethod
@@ -92,6 +102,18 @@ class Task(ABC):
         """Key actions of the scripted demonstrator, computed from the true state as it goes."""
 
     # --- helpers ---------------------------------------------------------------------------
+    def ordered(self, name: str, *conditions) -> bool:
+        """Whether the `conditions` (callables) hold in order, as RLBench's ConditionSet with
+        order_matters: with `latching` each one stays met once it was, in the order given (a
+        later one counts only after the earlier ones); without it they must all hold now."""
+        if not self.latching:
+            return all(c() for c in conditions)
+        done = self._met_in_order.get(name, 0)
+        while done < len(conditions) and conditions[done]():
+            done += 1
+        self._met_in_order[name] = done
+        return done == len(conditions)
+
     @staticmethod
     def key(position, quat_wxyz=GRIPPER_DOWN_WXYZ, gripper_open: bool = True) -> KeyAction:
         p = np.asarray(position, dtype=float)
@@ -103,8 +125,19 @@ class Task(ABC):
     def world_point(pose: sapien.Pose, local) -> np.ndarray:
         return np.asarray((pose * sapien.Pose(local)).p, dtype=float)
 
+    def graspable_ids(self) -> set[int]:
+        """Entity ids of the objects `simulator.grasp: attach` may attach to the hand."""
+        if self.graspable_objects is None:
+            return set(self.objects.movable_ids)
+        return {i for name in self.graspable_objects for i in self.objects.ids_of(name)}
+
     def grasped(self) -> set[int]:
-        """Entity ids that both fingers currently touch (what the gripper is holding)."""
+        """Entity ids that both fingers currently touch or that are attached to the hand
+        (what the gripper is holding)."""
+        held = set() if self.world.grasp is None else self.world.grasp.held_ids
+        return held | self._squeezed()
+
+    def _squeezed(self) -> set[int]:
         fingers = [f.entity for f in self.world.robot.fingers]
         touched: list[set[int]] = [set(), set()]
         for contact in self.world.scene.get_contacts():

@@ -34,6 +34,7 @@ class LazyTask:
     instruction = property(lambda self: self.task_class.instruction)
     object_names = property(lambda self: self.task_class.object_names)
     max_control_steps = property(lambda self: getattr(self.task_class, "max_control_steps", None))
+    phrasings = property(lambda self: self.task_class.phrasings)
 
     def __call__(self, *args, **kwargs):
         return self.task_class(*args, **kwargs)

@@ -49,6 +49,7 @@ class ReachAndDrag(Task):
     split = "seen"
     instruction = "use the stick to drag the cube onto the red target"
     object_names = ("stick", "cube", "red target", "green target", "blue target", "yellow target")
+    graspable_objects = ("stick",)  # only the tool is held (what it moves is not)
 
     def load(self) -> None:
         scene = self.world.scene

@@ -48,6 +48,7 @@ class SweepToDustpanOfSize(Task):
     split = "seen"
     instruction = "sweep dirt to the tall dustpan"
     object_names = ("broom", "dirt", "tall dustpan", "short dustpan")
+    graspable_objects = ("broom",)  # only the tool is held (what it moves is not)
 
     def _build_dustpan(self, size: str) -> sapien.Entity:
         """A dustpan in its own frame: floor centred at the origin, opening towards -y."""

@@ -38,6 +38,15 @@ class BasketballInHoop(Task):
     max_control_steps = 106  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "put the ball in the hoop"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put the ball in the hoop",
+        "play basketball",
+        "shoot the ball through the net",
+        "pick up the basketball and put it in the hoop",
+        "throw the basketball through the hoop",
+        "place the basket ball through the hoop",
+    )
     object_names = ("ball", "hoop")
 
     def load(self) -> None:

@@ -52,6 +52,16 @@ class BeatTheBuzz(Task):
     max_control_steps = 76  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "beat the buzz"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "beat the buzz",
+        "slide the ring along the pole without allowing them to touch",
+        "slide the ring along the metal pole, avoiding contact between them",
+        "slide the ring from one end of the pole to the other without allowing them to touch",
+        "slide the ring from one end of the pole to the other, avoiding contact between them",
+        "move the ring from one end of the pole to the other, maintaining a gap between them",
+        "move the ring from end of the pole to the other whilst maintaining separation between them",
+    )
     object_names = ("wand", "buzz wire", "start rest", "end rest")
 
     def load(self) -> None:

@@ -39,6 +39,14 @@ class CloseFridge(Task):
     max_control_steps = 62  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "close fridge"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "close fridge",
+        "close the fridge",
+        "shut the fridge",
+        "close the fridge door",
+        "swing the fridge door shut",
+    )
     object_names = ("fridge", "fridge top door", "fridge bottom door")
 
     def load(self) -> None:

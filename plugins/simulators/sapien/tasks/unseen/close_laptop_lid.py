@@ -35,6 +35,12 @@ class CloseLaptopLid(Task):
     max_control_steps = 68  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "close laptop lid"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "close laptop lid",
+        "close the laptop",
+        "shut the laptop lid",
+    )
     object_names = ("laptop", "laptop lid")
 
     def load(self) -> None:

@@ -36,6 +36,13 @@ class CloseMicrowave(Task):
     max_control_steps = 216  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "close microwave"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "close microwave",
+        "shut the microwave",
+        "close the microwave door",
+        "push the microwave door shut",
+    )
     object_names = ("microwave", "microwave door", "microwave door handle")
 
     def load(self) -> None:

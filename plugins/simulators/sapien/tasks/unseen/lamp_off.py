@@ -139,4 +139,12 @@ class LampOff(LampTask):
     name = "lamp_off"
     max_control_steps = 46  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     instruction = "turn off the light"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "turn off the light",
+        "press the button to turn off the lamp",
+        "press the light switch",
+        "turn the lamp off",
+        "close the gripper and press on the button until the light turns off",
+    )
     start_lit = True

@@ -25,4 +25,12 @@ class LampOn(LampTask):
     name = "lamp_on"
     max_control_steps = 46  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     instruction = "turn on the light"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "turn on the light",
+        "press the button to turn on the lamp",
+        "press the light switch",
+        "turn the lamp on",
+        "close the gripper and press on the button until the light turns on",
+    )
     start_lit = False

@@ -41,6 +41,13 @@ class OpenGrill(Task):
     max_control_steps = 102  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "open the grill"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "open the grill",
+        "grasp tha handle and raise the cover up to open the grill",
+        "open the bbq",
+        "open the barbecue",
+    )
     object_names = ("grill", "grill lid", "grill lid handle")
 
     def load(self) -> None:

@@ -41,6 +41,15 @@ class PhoneOnBase(Task):
     max_control_steps = 110  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "put the phone on the base"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put the phone on the base",
+        "put the phone on the stand",
+        "put the hone on the hub",
+        "grasp the phone and put it on the base",
+        "place the phone on the base",
+        "put the phone back on the base",
+    )
     object_names = ("phone", "phone base")
 
     def load(self) -> None:

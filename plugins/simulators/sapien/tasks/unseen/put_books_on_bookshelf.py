@@ -45,6 +45,13 @@ class PutBooksOnBookshelf(Task):
     max_control_steps = 94  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "put 1 books on bookshelf"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put 1 books on bookshelf",
+        "put books on bookshelf",
+        "pick up the books and place them on the top shelf",
+        "stack the books up on the top shelf",
+    )
     object_names = ("book 1", "book 2", "book 3", "bookshelf", "top shelf")
 
     def load(self) -> None:

@@ -16,7 +16,8 @@ Randomisations:
 
 Success conditions:
     The knife lies on the board (its centre over the board and less than 3 cm above the
-    board's top) AND nothing is grasped.
+    board's top) AND nothing is grasped. With `simulator.success_check: per_frame` the two
+    latch in that order, as RLBench's ordered ConditionSet: on the board once, then let go.
 """
 
 from __future__ import annotations
@@ -49,6 +50,14 @@ class PutKnifeOnChoppingBoard(Task):
     max_control_steps = 122  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "put the knife on the chopping board"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put the knife on the chopping board",
+        "slide the knife out of the knife block and put it down on the chopping board",
+        "place the knife on the chopping board",
+        "pick up the knife and leave it on the chopping board",
+        "move the knife from the holder to the chopping board",
+    )
     object_names = ("knife", "knife block", "chopping board")
 
     def load(self) -> None:
@@ -113,7 +122,8 @@ class PutKnifeOnChoppingBoard(Task):
         return bool(over and 0.0 < local[2] - 2 * BOARD_HALF[2] < 0.03)
 
     def evaluate(self) -> bool:
-        return self.on_board() and not self.grasped()
+        # RLBench: an ordered ConditionSet (on the board, then nothing grasped)
+        return self.ordered("placed", self.on_board, lambda: not self.grasped())
 
     def demonstration(self):
         knife = self.knife.pose

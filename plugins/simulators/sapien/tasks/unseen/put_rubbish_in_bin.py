@@ -40,7 +40,16 @@ class PutRubbishInBin(Task):
     max_control_steps = 94  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "put rubbish in bin"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put rubbish in bin",
+        "drop the rubbish into the bin",
+        "pick up the rubbish and leave it in the trash can",
+        "throw away the trash, leaving any other objects alone",
+        "chuck way any rubbish on the table rubbish",
+    )
     object_names = ("rubbish", "tomato 1", "tomato 2", "bin")
+    graspable_objects = ("rubbish",)  # RLBench registers only the rubbish
 
     def load(self) -> None:
         ab = self.world.scene.create_articulation_builder()

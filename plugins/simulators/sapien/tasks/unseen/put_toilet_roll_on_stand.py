@@ -41,6 +41,12 @@ class PutToiletRollOnStand(Task):
     max_control_steps = 94  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "put toilet roll on stand"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put toilet roll on stand",
+        "place the toilet roll on the stand",
+        "slide the roll onto its holder",
+    )
     object_names = ("toilet roll", "toilet roll stand")
 
     def load(self) -> None:

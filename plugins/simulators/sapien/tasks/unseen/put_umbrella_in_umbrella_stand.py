@@ -44,6 +44,13 @@ class PutUmbrellaInUmbrellaStand(Task):
     max_control_steps = 90  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "put umbrella in umbrella stand"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "put umbrella in umbrella stand",
+        "pick up the umbrella and drop it in its stand",
+        "use the handle to lift the umbrella and place it in its holder",
+        "set the umbrella down inside the umbrella stand",
+    )
     object_names = ("umbrella", "umbrella stand")
 
     def load(self) -> None:

@@ -83,7 +83,17 @@ class ScoopWithSpatula(Task):
     max_control_steps = 98  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "scoop up the cube and lift it with the spatula"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "scoop up the cube and lift it with the spatula",
+        "scoop up the block and lift it with the spatula",
+        "use the spatula to scoop the cube and lift it",
+        "use the spatula to scoop the block and lift it",
+        "pick up the cube using the spatula",
+        "pick up the block using the spatula",
+    )
     object_names = ("spatula", "cube")
+    graspable_objects = ("spatula",)  # only the tool is held (what it moves is not)
 
     def load(self) -> None:
         scene = self.world.scene

@@ -99,6 +99,15 @@ class StraightenRope(Task):
     max_control_steps = 188  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "straighten rope"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "straighten rope",
+        "pull the rope straight",
+        "grasping each end of the rope in turn, leave the rope straight on the table",
+        "pull each end of the rope until is is straight",
+        "tighten the rope",
+        "pull the rope tight",
+    )
     object_names = ("rope", "rope head", "rope tail", "head target", "tail target")
 
     def load(self) -> None:

@@ -39,6 +39,15 @@ class TakeLidOffSaucepan(Task):
     max_control_steps = 48  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "take lid off the saucepan"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "take lid off the saucepan",
+        "using the handle, lift the lid off of the pan",
+        "remove the lid from the pan",
+        "grip the saucepan's lid and remove it from the pan",
+        "leave the pan open",
+        "uncover the saucepan",
+    )
     object_names = ("saucepan", "saucepan lid")
 
     def load(self) -> None:

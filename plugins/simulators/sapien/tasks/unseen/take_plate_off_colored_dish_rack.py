@@ -47,6 +47,15 @@ class TakePlateOffColoredDishRack(Task):
     max_control_steps = 106  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "take plate off the black colored rack"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "take plate off the black colored rack",
+        "remove the dish from the black rack",
+        "find the dish placed between the black spokes of the dish rack and drop it on the table",
+        "grasp the plate from the black part of the dish rack, lift it up off of the rack, and leave it on the table top",
+        "move the plate from the black rack to the table's surface",
+        "lift the plate up off the black colored rack and drop it onto the table from a considerable height",
+    )
     object_names = ("plate", "dish rack", "black rack", "red rack", "purple rack")
 
     def load(self) -> None:

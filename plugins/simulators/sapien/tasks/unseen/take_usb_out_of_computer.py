@@ -40,6 +40,14 @@ class TakeUsbOutOfComputer(Task):
     max_control_steps = 72  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "take usb out of computer"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "take usb out of computer",
+        "remove the usb stick from its port",
+        "retrieve the usb stick",
+        "grasp the usb stick and slide it out of the pc",
+        "get a hold of the usb stick and pull it out of the desktop computer",
+    )
     object_names = ("computer", "usb stick")
 
     def load(self) -> None:

@@ -37,6 +37,17 @@ class ToiletSeatDown(Task):
     max_control_steps = 62  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level1"
     instruction = "toilet seat down"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "toilet seat down",
+        "put the toilet seat down",
+        "grasping the top of the lid, close the toilet seat",
+        "put the toilet lid down",
+        "leave the toilet seat down",
+        "close the lid on the toilet",
+        "lower the toilet seat",
+        "grip the edge of the toilet lid and lower it flat on the toilet seat",
+    )
     object_names = ("toilet", "toilet seat")
 
     def load(self) -> None:

@@ -50,6 +50,16 @@ class TurnOvenOn(Task):
     max_control_steps = 112  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "turn on the oven"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "turn on the oven",
+        "grip the left most knob on the oven and rotate it anti-clockwise to turn the oven on",
+        "turn the left most knob on the oven to switch the oven on",
+        "heat up the oven",
+        "get the oven hot",
+        "preheat the oven",
+        "get the oven heat going",
+    )
     object_names = ("oven", "left oven knob", "right oven knob")
 
     def load(self) -> None:

@@ -56,6 +56,15 @@ class UnplugCharger(Task):
     max_control_steps = 74  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "unplug charger"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "unplug charger",
+        "take the charger out of the wall",
+        "grip the black charger and pull it out of its socket",
+        "slide the plug out from the wall",
+        "remove the charger from the mains",
+        "get the charger from the wall plug",
+    )
     object_names = ("charger", "wall socket", "wall")
 
     def load(self) -> None:

@@ -62,7 +62,17 @@ class WaterPlants(Task):
     max_control_steps = 86  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "level2"
     instruction = "water plant"
+    #: every variation-0 phrasing RLBench's task gives (the instruction first), for benchmark.instructions
+    phrasings = (
+        "water plant",
+        "pick up the watering can by its handle and water the plant",
+        "pour some water on the plant",
+        "the plant needs hydration",
+        "pour water from the watering can into the plant pot",
+        "water the soil",
+    )
     object_names = ("watering can", "plant")
+    graspable_objects = ("watering can",)  # only the tool is held (what it moves is not)
 
     def load(self) -> None:
         scene = self.world.scene
