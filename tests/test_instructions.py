@@ -13,7 +13,7 @@ from xicm.core.types import KeyAction, Observation, TaskInfo
 
 
 class FakeSim:
-    info = TaskInfo("close_fridge", "level1", "close fridge", ("fridge",), ("close fridge", "shut the fridge", "close the fridge door"))
+    info = TaskInfo("close_fridge", "level1", "close fridge", ("fridge",), phrasings=("close fridge", "shut the fridge", "close the fridge door"))
 
     def task_info(self, task):
         return self.info
