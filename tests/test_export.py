@@ -27,7 +27,7 @@ def _compose(*overrides):
         ("export.cameras=[front,nose]", "export.cameras must be a non-empty list of distinct names from front,"),
         ("simulator.image_size=0", "simulator.image_size must be an integer from 1 to 4096"),
         ("simulator.image_size=5000", "simulator.image_size must be an integer from 1 to 4096"),
-        ("+simulator.control_mode=ee_velocity", "simulator.control_mode must be one of ee_delta, ee_pose, joint_pos, joint_delta"),
+        ("simulator.control_mode=ee_velocity", "simulator.control_mode must be one of ee_delta, ee_pose, joint_pos, joint_delta"),
         ("export.tasks=[close_jar,fly_to_moon]", "unknown task 'fly_to_moon' for simulator 'sapien'; available:"),
         ("export.repo_id=nameonly", "export.repo_id must be 'owner/name'"),
     ],
