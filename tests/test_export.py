@@ -3,6 +3,7 @@ seen tasks written and loaded by lerobot's own LeRobotDataset (in its isolated e
 loaded actions replay to success in the Gymnasium env in every action space; a partial export
 resumes."""
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -200,3 +201,34 @@ def test_a_partial_export_resumes_recording_only_what_is_missing(exported, monke
     loaded = tmp_path / "loaded.npz"
     read_dataset(work, cfg.export.repo_id, loaded, cfg.paths.cache)
     assert int(np.load(loaded)["num_episodes"]) == 4
+
+
+@pytest.mark.slow
+@needs_lerobot
+def test_lerobot_trains_on_the_export_and_writes_a_servable_checkpoint(exported, tmp_path):
+    """xicm-train-lerobot runs lerobot's own training script on the exported dataset (2 steps
+    of a tiny ACT here; the recipe's sizes are for real runs)."""
+    import subprocess
+    import sys
+
+    _, out_dir, _, _, _ = exported
+    tiny = ["--policy.dim_model=32", "--policy.n_heads=2", "--policy.dim_feedforward=64", "--policy.n_encoder_layers=1",
+            "--policy.n_vae_encoder_layers=1", "--policy.chunk_size=4", "--policy.n_action_steps=4"]
+    cmd = [str(Path(sys.executable).parent / "xicm-train-lerobot"), str(out_dir), str(tmp_path / "train"), "--steps=2",
+           "--batch-size=2", "--", *tiny]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
+    model = tmp_path / "train" / "checkpoints" / "000002" / "pretrained_model"
+    config = json.loads((model / "config.json").read_text())
+    assert config["type"] == "act" and config["chunk_size"] == 4 and config["dim_model"] == 32
+    assert set(config["input_features"]) == {"observation.images.front", "observation.images.wrist", "observation.state"}
+    assert (model / "model.safetensors").stat().st_size > 0 and (model / "policy_preprocessor.json").is_file()
+
+
+def test_train_lerobot_refuses_a_folder_that_is_not_a_dataset(tmp_path):
+    import subprocess
+    import sys
+
+    done = subprocess.run([str(Path(sys.executable).parent / "xicm-train-lerobot"), str(tmp_path), str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and f"{tmp_path} is not a LeRobot dataset (no meta/info.json)" in done.stderr
