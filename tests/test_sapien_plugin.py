@@ -35,7 +35,10 @@ def test_task_info_comes_from_the_task_class(registry):
     from xicm.plugins.simulators.sapien.tasks.unseen.close_microwave import CloseMicrowave
 
     info = registry.task_info("close_microwave")
-    assert info == TaskInfo("close_microwave", "level1", CloseMicrowave.instruction, CloseMicrowave.object_names)
+    assert info == TaskInfo(
+        "close_microwave", "level1", CloseMicrowave.instruction, CloseMicrowave.object_names, CloseMicrowave.max_control_steps
+    )
+    assert info.max_control_steps == 216
     assert info.instruction == "close microwave"
     splits = [registry.task_info(name).split for name in registry.tasks(simulator="sapien")]
     assert (splits.count("seen"), splits.count("level1"), splits.count("level2")) == (18, 13, 10)  # AGNOSTOS
