@@ -36,9 +36,10 @@ def test_task_info_comes_from_the_task_class(registry):
 
     info = registry.task_info("close_microwave")
     assert info == TaskInfo(
-        "close_microwave", "level1", CloseMicrowave.instruction, CloseMicrowave.object_names, CloseMicrowave.phrasings
+        "close_microwave", "level1", CloseMicrowave.instruction, CloseMicrowave.object_names,
+        CloseMicrowave.max_control_steps, CloseMicrowave.phrasings,
     )
-    assert info.phrasings[:2] == ("close microwave", "shut the microwave")
+    assert info.max_control_steps == 216 and info.phrasings[:2] == ("close microwave", "shut the microwave")
     assert info.instruction == "close microwave"
     splits = [registry.task_info(name).split for name in registry.tasks(simulator="sapien")]
     assert (splits.count("seen"), splits.count("level1"), splits.count("level2")) == (18, 13, 10)  # AGNOSTOS
