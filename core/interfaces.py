@@ -11,6 +11,7 @@ import numpy as np
 
 from xicm.core.types import (
     Box,
+    ControlStep,
     Demo,
     JointAction,
     KeyAction,
@@ -164,8 +165,9 @@ class Policy(ABC):
         """Start an episode of `task`; `rng` is the episode's own generator for random choices."""
 
     @abstractmethod
-    def act(self, obs: Observation) -> list[KeyAction | JointAction]:
-        """The next key actions or joint targets (at least one) for the current observation."""
+    def act(self, obs: Observation) -> list[KeyAction | JointAction | ControlStep]:
+        """The next actions (at least one) for the current observation: key poses, joint targets,
+        or per-step actions (one or a chunk)."""
 
     def act_batch(self, peers: list[Policy], observations: list[Observation]) -> list:
         """Act for several environments at once (xicm-eval envs=N): `peers[i]`, the instance of
