@@ -75,8 +75,11 @@ def test_ray_workers_share_one_openai_server(server, smoke_pool, tmp_path):
     keys = [(r["task"], r["seed"], r["episode"]) for r in rows]
     assert sorted(keys) == sorted((t, 0, e) for t in ("open_drawer", "push_buttons", "close_microwave") for e in (0, 1))
     assert all(r["error_kind"] != "llm_error" and r["responses"] and set(r["responses"]) == {REPLY} for r in rows), rows
-    assert sum(len(r["responses"]) for r in rows) == len(server.requests)
-    assert all(req["body"]["model"] == "test-model" for req in server.requests)
+    completions = [req for req in server.requests if req["path"].endswith("/completions")]
+    checks = [req for req in server.requests if req["path"] == "/v1/models"]
+    assert sum(len(r["responses"]) for r in rows) == len(completions)
+    assert all(req["body"]["model"] == "test-model" for req in completions)
+    assert len(checks) == 2  # each Ray worker checked the server once, at start
 
     pids = set(server.client_pids)
     assert None not in pids and proc.pid not in pids  # the driver itself asks nothing
