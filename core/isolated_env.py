@@ -12,8 +12,6 @@ Scripts run in it by path with its interpreter; they import only what the env ho
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import hashlib
 import os
 import shutil
@@ -22,6 +20,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from xicm.core.atomic import file_lock
 from xicm.core.errors import XicmError
 
 READY = "xicm-env-ready"  # written last inside the env: its presence means the build finished
@@ -47,20 +46,10 @@ def env_python(spec: EnvSpec, cache: str | Path, log=print) -> Path:
     final = Path(cache).expanduser() / "envs" / spec.folder_name()
     if not (final / READY).exists():
         final.parent.mkdir(parents=True, exist_ok=True)
-        with _locked(final.with_name(f".{final.name}.lock")):
+        with file_lock(final.with_name(f".{final.name}.lock")):
             if not (final / READY).exists():  # another process may have built it meanwhile
                 _build(spec, final, log)
     return final / "bin" / "python"
-
-
-@contextlib.contextmanager
-def _locked(lock_path: Path):
-    with open(lock_path, "a") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def _build(spec: EnvSpec, final: Path, log) -> None:

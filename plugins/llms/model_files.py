@@ -7,7 +7,6 @@ xicm.plugins.llms.model_files` prints the converted folder (converting it if nee
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import os
@@ -16,6 +15,8 @@ import tempfile
 import time
 from pathlib import Path
 from typing import Any
+
+from xicm.core.atomic import file_lock
 
 from xicm.core.errors import ConfigError
 
@@ -66,7 +67,7 @@ def embedded_model_dir(cache_dir: str | os.PathLike | None = None, convert: bool
     if not convert or _is_model_folder(target):
         return target
     models_dir.mkdir(parents=True, exist_ok=True)
-    with _file_lock(models_dir / f".{target.name}.lock"):
+    with file_lock(models_dir / f".{target.name}.lock"):
         if not _is_model_folder(target):  # another process may have finished meanwhile
             _convert_embedded(package, target)
     return target
@@ -74,18 +75,6 @@ def embedded_model_dir(cache_dir: str | os.PathLike | None = None, convert: bool
 
 def _is_model_folder(path: Path) -> bool:
     return (path / "config.json").is_file() and any(path.glob("*.safetensors"))
-
-
-@contextlib.contextmanager
-def _file_lock(path: Path):
-    import fcntl
-
-    with open(path, "a+") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def _convert_embedded(package, target: Path) -> None:
