@@ -8,6 +8,8 @@ A request holds LeRobot's own keys: "observation.images.<camera>" (uint8 H x W x
 "observation.state" (float vector) and "task" (the instruction); the reply is
 {"actions": (chunk_size, action_dim)}, the policy's whole predicted chunk, unnormalised (the
 client executes the first policy.chunk_steps_to_execute rows). Nothing is kept between requests.
+With --max-batch N > 1, requests arriving together from several connections (xicm-eval envs=N)
+go through one forward pass.
 """
 
 import argparse
@@ -49,19 +51,23 @@ class LeRobotChunks:
         return meta
 
     def infer(self, obs: dict) -> dict:
+        return self.infer_batch([obs])[0]
+
+    def infer_batch(self, observations: list[dict]) -> list[dict]:
         batch = {}
         for key in self.image_keys:
-            if key not in obs:
+            missing = [i for i, obs in enumerate(observations) if key not in obs]
+            if missing:
                 raise KeyError(f"the request has no '{key}' (the checkpoint reads {', '.join(self.image_keys)})")
-            image = torch.from_numpy(np.ascontiguousarray(obs[key])).permute(2, 0, 1).float() / 255.0
-            batch[key] = image.unsqueeze(0)
-        batch["observation.state"] = torch.from_numpy(np.asarray(obs["observation.state"], dtype=np.float32)).unsqueeze(0)
-        batch["task"] = [str(obs.get("task", ""))]
+            images = [torch.from_numpy(np.ascontiguousarray(obs[key])).permute(2, 0, 1) for obs in observations]
+            batch[key] = torch.stack(images).float() / 255.0
+        batch["observation.state"] = torch.stack(
+            [torch.from_numpy(np.asarray(obs["observation.state"], dtype=np.float32)) for obs in observations])
+        batch["task"] = [str(obs.get("task", "")) for obs in observations]
         batch = self.pre(batch)
         with torch.inference_mode():
-            chunk = self.policy.predict_action_chunk(batch)
-        chunk = self.post(chunk)
-        return {"actions": chunk[0].cpu().numpy().astype(np.float64)}
+            chunks = self.post(self.policy.predict_action_chunk(batch))
+        return [{"actions": chunk.cpu().numpy().astype(np.float64)} for chunk in chunks]
 
 
 def main() -> None:
@@ -71,10 +77,13 @@ def main() -> None:
     parser.add_argument("--port", type=int, default=8000)
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--action-space", default=None, help="announce the action space the checkpoint was trained in (xicm clients then need no policy.action_space)")
+    parser.add_argument("--max-batch", type=int, default=1, help="answer up to N concurrent requests with one forward pass")
+    parser.add_argument("--batch-wait-ms", type=float, default=5.0, help="how long a batch waits for more requests")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO)
     served = LeRobotChunks(args.checkpoint, args.device)
-    server = PolicyServer(served, args.host, args.port, metadata=served.metadata(args.action_space)).start()
+    server = PolicyServer(served, args.host, args.port, metadata=served.metadata(args.action_space),
+                          max_batch=args.max_batch, batch_wait_ms=args.batch_wait_ms).start()
     print(f"serving {served.config.type} from {args.checkpoint} on ws://{args.host}:{server.port}", flush=True)
     try:
         server.wait()

@@ -34,16 +34,19 @@ def package_shim(cache: Path) -> Path:
     return shim
 
 
-def server_command(python: Path, checkpoint: str, host: str, port: int, action_space: str | None, device: str) -> list[str]:
+def server_command(python: Path, checkpoint: str, host: str, port: int, action_space: str | None, device: str,
+                   max_batch: int = 1) -> list[str]:
     script = Path(__file__).with_name("lerobot_policy_server.py")
-    cmd = [str(python), str(script), "--checkpoint", str(checkpoint), "--host", host, "--port", str(port), "--device", device]
+    cmd = [str(python), str(script), "--checkpoint", str(checkpoint), "--host", host, "--port", str(port),
+           "--device", device, "--max-batch", str(max_batch)]
     return cmd + (["--action-space", action_space] if action_space else [])
 
 
 def start(python: Path, cache: Path, checkpoint: str, host: str = "127.0.0.1", port: int = 8000,
-          action_space: str | None = None, device: str = "cpu", **popen) -> subprocess.Popen:
+          action_space: str | None = None, device: str = "cpu", max_batch: int = 1, **popen) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": str(package_shim(cache)), "HF_HUB_OFFLINE": "1"}
-    return subprocess.Popen(server_command(python, checkpoint, host, port, action_space, device), env=env, **popen)
+    command = server_command(python, checkpoint, host, port, action_space, device, max_batch)
+    return subprocess.Popen(command, env=env, **popen)
 
 
 def main() -> None:
@@ -55,12 +58,15 @@ def main() -> None:
     parser.add_argument("--port", type=int, default=8000, help="0: any free port (printed)")
     parser.add_argument("--action-space", default=None, help="the export's simulator.control_mode the checkpoint was trained on (announced to clients)")
     parser.add_argument("--device", default="cpu", help="torch device, e.g. cuda")
+    parser.add_argument("--max-batch", type=int, default=1, help="answer up to N concurrent requests (xicm-eval envs=N) in one forward pass")
     parser.add_argument("--cache", default=os.environ.get("XICM_CACHE", str(Path.home() / ".cache" / "xicm")), help="where the lerobot environment lives")
     args = parser.parse_args()
     if not (Path(args.checkpoint) / "config.json").is_file():
         parser.exit(2, f"xicm-serve-lerobot: error: {args.checkpoint} is not a LeRobot checkpoint folder (it has no config.json)\n")
+    if args.max_batch < 1:
+        parser.exit(2, f"xicm-serve-lerobot: error: --max-batch must be >= 1, got {args.max_batch}\n")
     cache = Path(args.cache).expanduser()
-    server = start(env_python(cache), cache, args.checkpoint, args.host, args.port, args.action_space, args.device)
+    server = start(env_python(cache), cache, args.checkpoint, args.host, args.port, args.action_space, args.device, args.max_batch)
     try:
         sys.exit(server.wait())
     except KeyboardInterrupt:

@@ -4,6 +4,8 @@ At connect the server sends its metadata; then every binary frame from the clien
 observation and is answered with one binary frame (the policy's output dict, usually
 {"actions": array}). A failing `infer` is answered with a text frame holding one sentence and
 the connection stays open (openpi's own server closes it). `GET /healthz` answers 200 "OK".
+A stateless policy with `infer_batch(observations) -> replies` may be served with `max_batch` > 1:
+requests from several connections are then answered together (serving/batching.py).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from typing import Any, Protocol
 from websockets.asyncio.server import Request, Response, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 
+from xicm.serving.batching import RequestBatcher
 from xicm.serving.wire import pack, unpack
 
 log = logging.getLogger(__name__)
@@ -35,6 +38,13 @@ class Sessions(Protocol):
     def close_session(self, session: InferencePolicy) -> None: ...
 
 
+def _in_thread(infer):
+    """infer(obs) as a coroutine run in a worker thread (the event loop keeps serving)."""
+    async def run(obs: dict) -> Any:
+        return await asyncio.to_thread(infer, obs)
+    return run
+
+
 def _health(connection: ServerConnection, request: Request) -> Response | None:
     if request.path == "/healthz":
         return connection.respond(http.HTTPStatus.OK, "OK\n")
@@ -48,7 +58,8 @@ class PolicyServer:
     `Sessions` policy gives each connection its own session (which may share a lock of its own).
     """
 
-    def __init__(self, policy: InferencePolicy | Sessions, host: str = "127.0.0.1", port: int = 8000, metadata: dict | None = None):
+    def __init__(self, policy: InferencePolicy | Sessions, host: str = "127.0.0.1", port: int = 8000,
+                 metadata: dict | None = None, max_batch: int = 1, batch_wait_ms: float = 5.0):
         self.policy = policy
         self.host = host
         self.port = int(port)
@@ -57,6 +68,11 @@ class PolicyServer:
         self._stop: asyncio.Event | None = None
         self._thread: threading.Thread | None = None
         self._lock = threading.Lock()  # one infer at a time: policies are not thread-safe
+        self.batcher = None
+        if max_batch > 1:
+            if hasattr(policy, "open_session") or not hasattr(policy, "infer_batch"):
+                raise ValueError(f"max_batch={max_batch} needs a stateless policy with infer_batch; {type(policy).__name__} has none")
+            self.batcher = RequestBatcher(self._infer_batch_shared, self._infer_shared, max_batch, batch_wait_ms)
 
     async def _handle(self, ws: ServerConnection) -> None:
         log.info("connection from %s", ws.remote_address)
@@ -64,11 +80,13 @@ class PolicyServer:
         if hasattr(self.policy, "open_session"):
             session = await asyncio.to_thread(self.policy.open_session)
             try:
-                await self._serve_connection(ws, session.infer)
+                await self._serve_connection(ws, _in_thread(session.infer))
             finally:
                 self.policy.close_session(session)
+        elif self.batcher is not None:
+            await self._serve_connection(ws, self.batcher.infer)
         else:
-            await self._serve_connection(ws, self._infer_shared)
+            await self._serve_connection(ws, _in_thread(self._infer_shared))
 
     async def _serve_connection(self, ws: ServerConnection, infer) -> None:
         while True:
@@ -82,7 +100,7 @@ class PolicyServer:
                 obs = unpack(frame)
                 if not isinstance(obs, dict):
                     raise TypeError(f"the observation must be a map, got {type(obs).__name__}")
-                reply = await asyncio.to_thread(infer, obs)
+                reply = await infer(obs)
             except Exception as exc:  # noqa: BLE001 - the client gets the reason, the server goes on
                 log.warning("infer failed: %s: %s", type(exc).__name__, exc)
                 await ws.send(f"{type(exc).__name__}: {exc}")
@@ -92,6 +110,10 @@ class PolicyServer:
     def _infer_shared(self, obs: dict) -> Any:
         with self._lock:
             return self.policy.infer(obs)
+
+    def _infer_batch_shared(self, observations: list[dict]) -> list[Any]:
+        with self._lock:
+            return self.policy.infer_batch(observations)
 
     async def _serve(self, started: threading.Event | None) -> None:
         self._stop = asyncio.Event()

@@ -28,10 +28,9 @@ def tiny_act(tmp_path_factory):
     return python, folder / "ckpt", np.load(folder / "ref.npz")
 
 
-@pytest.fixture(scope="module")
-def served(tiny_act):
+def serve(tiny_act, max_batch: int = 1):
     python, ckpt, _ = tiny_act
-    server = start(python, CACHE, str(ckpt), port=0, action_space="joint_pos",
+    server = start(python, CACHE, str(ckpt), port=0, action_space="joint_pos", max_batch=max_batch,
                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         for line in server.stdout:
@@ -44,6 +43,11 @@ def served(tiny_act):
     finally:
         server.terminate()
         server.wait(timeout=30)
+
+
+@pytest.fixture(scope="module")
+def served(tiny_act):
+    yield from serve(tiny_act)
 
 
 def test_served_actions_are_the_in_memory_policys(tiny_act, served):
@@ -74,3 +78,19 @@ def test_xicm_eval_runs_episodes_against_the_served_policy(served, tmp_path):
     # or stops early on an unreachable joint target; never a wire or shape error
     assert len(rows) == 2 and all(r["error_kind"] in ("max_control_steps", "unreachable") for r in rows), rows
     assert all(r["steps"] >= 1 for r in rows)
+
+
+def test_batched_requests_get_the_one_at_a_time_chunks(tiny_act, served):
+    """--max-batch 2: two connections asking together share one forward pass; each chunk is the
+    one the one-at-a-time server gives for that observation (to float32 rounding of a batched matmul)."""
+    from test_server_batching import ask_together
+
+    _, _, ref = tiny_act
+    other = {"observation.images.front": ref["image"][::-1].copy(), "observation.state": -ref["state"], "task": "push the button"}
+    first = {"observation.images.front": ref["image"], "observation.state": ref["state"], "task": "push the button"}
+    alone = ask_together(served, [other])[0]["actions"]
+    for port in serve(tiny_act, max_batch=2):
+        together = ask_together(port, [first, other])
+    np.testing.assert_allclose(together[0]["actions"], ref["chunk"].astype(np.float64), rtol=0, atol=1e-5)
+    np.testing.assert_allclose(together[1]["actions"], alone, rtol=0, atol=1e-5)
+    assert not np.allclose(together[0]["actions"], together[1]["actions"])  # two different answers, not one copied
