@@ -2,6 +2,7 @@
 training script (`lerobot.scripts.lerobot_train`), run in the lerobot environment.
 
     xicm-train-lerobot DATASET_DIR OUTPUT_DIR [--steps N] [-- more lerobot-train options]
+    xicm-train-lerobot DATASET_DIR OUTPUT_DIR --resume [--steps N]   # go on from the last checkpoint
 
 The defaults suit this project's machines: an ACT policy on CPU, no pretrained backbone (no
 download), no wandb, no hub upload; every default can be overridden by a lerobot-train option
@@ -36,6 +37,14 @@ def train_command(python: Path, dataset: Path, output: Path, steps: int, batch_s
     ]
 
 
+def resume_command(python: Path, output: Path, steps: int | None, extra: list[str]) -> list[str]:
+    """lerobot-train's own resume: the run's saved config, optimizer and step, from checkpoints/last
+    (--steps raises the total, e.g. to train further than first planned)."""
+    config = output / "checkpoints" / "last" / "pretrained_model" / "train_config.json"
+    more = [f"--steps={steps}"] if steps is not None else []
+    return [str(python), "-m", "lerobot.scripts.lerobot_train", f"--config_path={config}", "--resume=true", *more, *extra]
+
+
 def main() -> None:
     from xicm.export.lerobot_env import env_python
 
@@ -45,15 +54,25 @@ def main() -> None:
     parser = argparse.ArgumentParser(prog="xicm-train-lerobot", description=__doc__.split("\n\n")[0])
     parser.add_argument("dataset", type=Path, help="a dataset folder written by xicm-export (meta/info.json inside)")
     parser.add_argument("output", type=Path, help="lerobot-train's output_dir (must not exist yet)")
-    parser.add_argument("--steps", type=int, default=5000)
+    parser.add_argument("--steps", type=int, default=None, help="total optimizer steps (default 5000; with --resume: the run's own)")
+    parser.add_argument("--resume", action="store_true", help="continue OUTPUT's run from its last checkpoint")
     parser.add_argument("--batch-size", type=int, default=8)
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--cache", default=os.environ.get("XICM_CACHE", str(Path.home() / ".cache" / "xicm")))
     args = parser.parse_args(argv)
     if not (args.dataset / "meta" / "info.json").is_file():
         parser.exit(2, f"xicm-train-lerobot: error: {args.dataset} is not a LeRobot dataset (no meta/info.json)\n")
-    if args.steps < 1 or args.batch_size < 1:
+    if (args.steps is not None and args.steps < 1) or args.batch_size < 1:
         parser.exit(2, "xicm-train-lerobot: error: --steps and --batch-size must be >= 1\n")
-    cmd = train_command(env_python(Path(args.cache).expanduser()), args.dataset.resolve(), args.output.resolve(),
-                        args.steps, args.batch_size, args.device, extra)
+    output = args.output.resolve()
+    last = output / "checkpoints" / "last" / "pretrained_model" / "train_config.json"
+    if args.resume and not last.is_file():
+        parser.exit(2, f"xicm-train-lerobot: error: --resume needs a run with a checkpoint, and {last} does not exist\n")
+    if not args.resume and output.exists():
+        parser.exit(2, f"xicm-train-lerobot: error: {output} exists; --resume continues its run, or choose a new folder\n")
+    python = env_python(Path(args.cache).expanduser())  # builds the lerobot environment the first time
+    if args.resume:
+        cmd = resume_command(python, output, args.steps, extra)
+    else:
+        cmd = train_command(python, args.dataset.resolve(), output, args.steps or 5000, args.batch_size, args.device, extra)
     sys.exit(subprocess.run(cmd, env={**os.environ, "HF_HUB_OFFLINE": "1", "WANDB_MODE": "disabled"}).returncode)

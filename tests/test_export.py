@@ -224,6 +224,27 @@ def test_lerobot_trains_on_the_export_and_writes_a_servable_checkpoint(exported,
     assert set(config["input_features"]) == {"observation.images.front", "observation.images.wrist", "observation.state"}
     assert (model / "model.safetensors").stat().st_size > 0 and (model / "policy_preprocessor.json").is_file()
 
+    # --resume goes on from the last checkpoint (lerobot's own resume: its optimizer and step)
+    done = subprocess.run([*cmd[:3], "--resume", "--steps=3"], capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, (done.stdout + done.stderr)[-3000:]
+    state = tmp_path / "train" / "checkpoints" / "000003" / "training_state" / "training_step.json"
+    assert json.loads(state.read_text())["step"] == 3 and (model / "model.safetensors").is_file()  # 000002 kept
+
+
+def test_train_lerobot_refuses_to_overwrite_a_run_or_resume_nothing(tmp_path):
+    import subprocess
+    import sys
+
+    dataset, out = tmp_path / "data", tmp_path / "out"
+    (dataset / "meta").mkdir(parents=True)
+    (dataset / "meta" / "info.json").write_text("{}")
+    out.mkdir()
+    script = str(Path(sys.executable).parent / "xicm-train-lerobot")
+    again = subprocess.run([script, str(dataset), str(out)], capture_output=True, text=True, timeout=120)
+    assert again.returncode == 2 and f"{out} exists; --resume continues its run" in again.stderr
+    resume = subprocess.run([script, str(dataset), str(out), "--resume"], capture_output=True, text=True, timeout=120)
+    assert resume.returncode == 2 and "--resume needs a run with a checkpoint" in resume.stderr
+
 
 def test_train_lerobot_refuses_a_folder_that_is_not_a_dataset(tmp_path):
     import subprocess
