@@ -172,3 +172,15 @@ def test_a_whole_observation_survives_the_wire(sim):
                 assert theirs.dtype == mine.dtype and np.array_equal(theirs, mine), (name, field)
     assert set(back.proprio) == set(obs.proprio) and all(np.array_equal(back.proprio[k], obs.proprio[k]) for k in obs.proprio)
     np.testing.assert_array_equal(back.joint_positions, obs.joint_positions)
+
+
+def test_an_image_mapping_on_the_command_line_replaces_the_default_whole():
+    """docs/VLA.md's commands map two cameras on the command line; Hydra would refuse a new key
+    merged into a default mapping, and a merge would keep a camera the user left out."""
+    from hydra import compose, initialize_config_module
+
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        two = compose("config", overrides=["policy=remote", "policy.images={front: observation.images.front, wrist: observation.images.wrist}"])
+        wrist_only = compose("config", overrides=["policy=remote", "policy.images={wrist: observation/wrist_image}"])
+    assert dict(two.policy.images) == {"front": "observation.images.front", "wrist": "observation.images.wrist"}
+    assert dict(wrist_only.policy.images) == {"wrist": "observation/wrist_image"}

@@ -61,7 +61,7 @@ class RemotePolicy(Policy):
 
         o = self.o
         try:
-            request = request_keys(obs, dict(o["images"]), o["image_size"], o["state_key"], list(o["state"]), o["prompt_key"])
+            request = request_keys(obs, dict(o["images"] or DEFAULT_IMAGES), o["image_size"], o["state_key"], list(o["state"]), o["prompt_key"])
         except ValueError as exc:
             raise EpisodeFailure("bad_observation", str(exc)) from exc
         request["xicm/episode"] = {**self.episode, "call": self.calls}
@@ -127,7 +127,9 @@ class RemotePolicyOptions:
     api_key: Optional[str] = None
     action_space: str = field(default="auto", metadata=one_of(*SPACES))
     chunk_steps_to_execute: Optional[int] = field(default=None, metadata=at_least(1))  # null: the whole chunk
-    images: Dict[str, str] = field(default_factory=lambda: dict(DEFAULT_IMAGES))  # camera -> request key
+    # camera -> request key; null: {front: observation/image}. Null in the YAML so that a mapping
+    # given on the command line replaces it whole (Hydra merges into an existing mapping)
+    images: Optional[Dict[str, str]] = None
     image_size: Optional[int] = field(default=None, metadata=at_least(1))  # null: as rendered
     state_key: Optional[str] = "observation/state"
     state: List[str] = field(default_factory=lambda: list(DEFAULT_STATE))  # proprio fields, in order
@@ -144,7 +146,7 @@ def create_remote_policy(
     api_key: str | None = None,
     action_space: str = "auto",
     chunk_steps_to_execute: int | None = None,
-    images: Mapping[str, str] = DEFAULT_IMAGES,
+    images: Mapping[str, str] | None = None,
     image_size: int | None = None,
     state_key: str | None = "observation/state",
     state: Sequence[str] = DEFAULT_STATE,
@@ -156,7 +158,7 @@ def create_remote_policy(
 
     options = dict(
         host=host, port=port, timeout_s=timeout_s, api_key=api_key, action_space=action_space,
-        chunk_steps_to_execute=chunk_steps_to_execute, images=dict(images),
+        chunk_steps_to_execute=chunk_steps_to_execute, images=dict(images or DEFAULT_IMAGES),
         image_size=image_size, state_key=state_key, state=list(state),
         prompt_key=prompt_key, gripper_open=gripper_open, gripper_closed=gripper_closed,
     )
