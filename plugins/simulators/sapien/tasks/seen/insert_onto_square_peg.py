@@ -40,6 +40,11 @@ class InsertOntoSquarePeg(Task):
     max_control_steps = 80  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the ring on the red spoke"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "put the ring on the red spoke",
+        "slide the ring onto the red colored spoke",
+        "place the ring onto the red spoke",
+    )
     object_names = ("square ring", "red spoke", "green spoke", "blue spoke")
 
     def load(self) -> None:

@@ -40,6 +40,11 @@ class MeatOffGrill(Task):
     max_control_steps = 88  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "take the chicken off the grill"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "take the chicken off the grill",
+        "pick up the chicken and place it next to the grill",
+        "remove the chicken from the grill and set it down to the side",
+    )
     object_names = ("chicken", "steak", "grill")
 
     def load(self) -> None:

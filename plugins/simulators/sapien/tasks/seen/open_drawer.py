@@ -41,6 +41,11 @@ class OpenDrawer(Task):
     max_control_steps = 50  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "open the top drawer"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "open the top drawer",
+        "grip the top handle and pull the top drawer open",
+        "slide the top drawer open",
+    )
     object_names = ("top drawer handle", "middle drawer handle", "bottom drawer handle")
 
     def load(self) -> None:

@@ -63,6 +63,12 @@ class PlaceShapeInShapeSorter(Task):
     max_control_steps = 106  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the cube in the shape sorter"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "put the cube in the shape sorter",
+        "pick up the cube and put it in the sorter",
+        "place the cube into its slot in the shape sorter",
+        "slot the cube into the shape sorter",
+    )
     object_names = ("shape sorter", "cube", "cylinder", "cross", "cuboid")
 
     def _build_sorter(self) -> sapien.Entity:

@@ -44,6 +44,15 @@ class PlaceWineAtRackLocation(Task):
     max_control_steps = 92  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "stack the wine bottle to the left of the rack"
+    # RLBench's variation 0 is the middle slot; ours (AGNOSTOS's instruction) is the left, so its
+    # templates are filled in with "left"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "stack the wine bottle to the left of the rack",
+        "slide the bottle onto the left part of the rack",
+        "put the wine on the left",
+        "leave the wine on the left section of the shelf",
+        "grasp the bottle and put it away on the left",
+    )
     object_names = ("wine bottle", "left slot", "middle slot", "right slot")
 
     def load(self) -> None:

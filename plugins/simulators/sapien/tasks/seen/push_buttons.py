@@ -40,6 +40,11 @@ class PushButtons(Task):
     max_control_steps = 104  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "push the red button"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "push the red button",
+        "press the red button",
+        "push down the button with the red base",
+    )
     object_names = ("red button", "green button", "blue button")
 
     def load(self) -> None:

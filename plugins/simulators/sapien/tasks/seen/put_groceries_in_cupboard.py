@@ -50,6 +50,14 @@ class PutGroceriesInCupboard(Task):
     max_control_steps = 128  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the soup in the cupboard"
+    # RLBench's variation 0 is the crackers; ours (AGNOSTOS's instruction) is the soup, so its
+    # templates are filled in with "soup"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "put the soup in the cupboard",
+        "pick up the soup and place it in the cupboard",
+        "move the soup to the bottom shelf",
+        "put away the soup in the cupboard",
+    )
     object_names = ("soup", "crackers", "mustard", "sugar", "cupboard")
 
     def load(self) -> None:

@@ -61,6 +61,12 @@ class PutItemInDrawer(OpenDrawer):
     max_control_steps = 208  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the item in the top drawer"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "put the item in the top drawer",
+        "put the block away in the top drawer",
+        "open the top drawer and place the block inside of it",
+        "leave the block in the top drawer",
+    )
     object_names = ("item", "top drawer handle", "middle drawer handle", "bottom drawer handle")
 
     def load(self) -> None:

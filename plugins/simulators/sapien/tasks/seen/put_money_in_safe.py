@@ -49,6 +49,11 @@ class PutMoneyInSafe(Task):
     max_control_steps = 124  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the money away in the safe on the bottom shelf"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "put the money away in the safe on the bottom shelf",
+        "leave the money on the bottom shelf on the safe",
+        "place the stack of bank notes on the bottom shelf of the safe",
+    )
     object_names = ("money", "safe", "bottom shelf", "middle shelf", "top shelf")
 
     def load(self) -> None:

@@ -48,6 +48,11 @@ class TurnTap(Task):
     max_control_steps = 90  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "turn left tap"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "turn left tap",
+        "rotate the left tap",
+        "grasp the left tap and turn it",
+    )
     object_names = ("left tap", "right tap", "faucet")
 
     def load(self) -> None:
