@@ -14,9 +14,10 @@ Randomisations:
     - which end (left or right) is the start.
 
 Success conditions:
-    The wand's ring is over the end rest (around the wire), the wand never touched the wire
-    during the episode (any touch is a failure for good, watched every frame), AND
-    the gripper holds nothing.
+    The wand's ring is over the end rest (around the wire), the wand touched the wire at the
+    end of no key action or step (as RLBench, which reads its fail condition after each step
+    and then ends the episode; a touch during a move that has gone by then does not count),
+    AND the gripper holds nothing.
 """
 
 from __future__ import annotations
@@ -116,15 +117,19 @@ class BeatTheBuzz(Task):
     def _local(self, p) -> np.ndarray:
         return np.asarray((self.frame.inv() * sapien.Pose(np.asarray(p, dtype=float))).p, dtype=float)
 
-    def on_frame(self) -> None:
-        if self.touched:
-            return
+    def wand_touches_wire(self) -> bool:
         pair = {self.wand.per_scene_id, self.wire.per_scene_id}
         for contact in self.world.scene.get_contacts():
             ids = {contact.bodies[0].entity.per_scene_id, contact.bodies[1].entity.per_scene_id}
             if ids == pair and any(p.separation < 5e-4 or abs(p.impulse).sum() > 1e-6 for p in contact.points):
-                self.touched = True
-                return
+                return True
+        return False
+
+    def on_step_end(self) -> None:
+        # RLBench reads its fail condition (the wand in the wire's sensor) after each step and
+        # then ends the episode as a failure; a touch during a move that has gone by then is not one
+        if not self.touched and self.wand_touches_wire():
+            self.touched = True
 
     def at_end(self) -> bool:
         """The ring is over the end rest, around the wire."""
@@ -134,7 +139,6 @@ class BeatTheBuzz(Task):
         return bool(over_rest and around)
 
     def evaluate(self) -> bool:
-        self.on_frame()
         return self.at_end() and not self.touched and not self.grasped()
 
     def demonstration(self):
