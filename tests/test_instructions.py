@@ -37,6 +37,18 @@ def test_every_unseen_task_keeps_rlbench_phrasings_with_its_instruction_first():
         assert len(set(info.phrasings)) == len(info.phrasings), name
 
 
+def test_every_seen_task_keeps_rlbench_phrasings_with_its_instruction_first():
+    from xicm.plugins.simulators.sapien.tasks import builtin_tasks
+
+    tasks = builtin_tasks()
+    seen = [n for n, t in tasks.items() if TaskInfo.of(n, t).split == "seen"]
+    assert len(seen) == 18
+    for name in seen:
+        info = TaskInfo.of(name, tasks[name])
+        assert info.phrasings[0] == info.instruction and len(info.phrasings) >= 3, name
+        assert len(set(info.phrasings)) == len(info.phrasings), name
+
+
 def test_agnostos_keeps_the_instruction():
     reword = episode_instruction(FakeSim(), _obs(), "close_fridge", 0, 0, "agnostos")
     assert reword(_obs()).instruction == "close fridge"

@@ -44,7 +44,7 @@ def test_attach_holds_the_picked_phone_rigidly_through_a_fast_swing(sims):
 
 def test_opening_the_gripper_releases_the_object(sims):
     sim = sims["attach"]
-    sim.reset_state("phone_on_base", 0, 0)
+    sim.reset_state("phone_on_base", 1, 0)
     release = hold_at_release(sim)
     phone = sim.task.phone
     go(sim, release)

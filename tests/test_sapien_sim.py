@@ -188,20 +188,7 @@ def test_execute_without_a_task_is_a_sim_error():
 
 
 # ------------------------------------------------------------------ replay
-# simulator.grasp: attach holds the shape rigidly; replayed from its quantised key actions, seed 1's
-# cube wedges on the slot's edge and stays in the lid (the demo itself succeeds; seeds 30-49: 18/20)
-REPLAY_WEDGES = {"place_shape_in_shape_sorter"}
-
-
-@pytest.mark.parametrize(
-    "task",
-    [
-        pytest.param(t, marks=pytest.mark.xfail(strict=True, reason="rigid grasp wedges the shape on replay, seed 1"))
-        if t in REPLAY_WEDGES
-        else t
-        for t in TASKS
-    ],
-)
+@pytest.mark.parametrize("task", TASKS)
 def test_quantised_key_actions_of_a_demo_replay(sim, task):
     """X-ICM's premise: the demo's key frames, as 7-integer text, solve the episode again."""
     for seed in (0, 1):

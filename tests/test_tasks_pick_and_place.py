@@ -16,7 +16,7 @@ PLACED = [
     ("put_groceries_in_cupboard", 1, lambda t: t.in_cupboard(t.variation)),
     ("place_wine_at_rack_location", 1, lambda t: t.slot_of_bottle() == t.variation),
     ("put_toilet_roll_on_stand", 0, lambda t: t.on_stand()),
-    ("phone_on_base", 0, lambda t: t.on_base()),
+    ("phone_on_base", 1, lambda t: t.on_base()),
     ("put_umbrella_in_umbrella_stand", 0, lambda t: t.in_stand()),
     ("take_plate_off_colored_dish_rack", 8, lambda t: t.off_rack() and t.on_table()),
     ("beat_the_buzz", 1, lambda t: t.at_end() and not t.touched),  # the wand on the end rest

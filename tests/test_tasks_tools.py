@@ -93,7 +93,7 @@ def test_scoop_cube_on_the_blade_on_the_table_released_is_not_a_success(sim):
 
 
 # ------------------------------------------------------------------ beat_the_buzz
-def test_beat_the_buzz_a_touch_of_the_wire_fails_for_good(sim):
+def test_beat_the_buzz_a_step_ending_on_the_wire_fails_for_good(sim):
     sim.reset_state("beat_the_buzz", 0, 0)
     task = sim.task
     for i, action in enumerate(task.demonstration()):
@@ -107,6 +107,24 @@ def test_beat_the_buzz_a_touch_of_the_wire_fails_for_good(sim):
         sim.execute(action)
     assert task.at_end() and not task.grasped()
     assert not sim.is_success()
+
+
+def test_beat_the_buzz_a_touch_gone_by_the_end_of_the_step_is_not_a_failure(sim):
+    """RLBench reads the wire's fail sensor only after each step, as the end of each key action here."""
+    import sapien
+
+    sim.reset_state("beat_the_buzz", 0, 0)
+    task = sim.task
+    for i, action in enumerate(task.demonstration()):
+        if i == 3:  # the carry 3 cm too high, as a move inside a step: the ring drags on the wire ...
+            high = moved(action, (0.0, 0.0, 0.03))
+            sim.controller.move_to(sapien.Pose(np.asarray(high.position), np.asarray(high.quat_wxyz)))
+            assert task.wand_touches_wire() and not task.touched
+            sim.execute(action)  # ... and the step ends back on the right line, clear of the wire
+            assert not task.touched
+            continue
+        sim.execute(action)
+    assert sim.is_success()
 
 
 def test_beat_the_buzz_wand_left_on_the_start_rest_is_not_a_success(sim):

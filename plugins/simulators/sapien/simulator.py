@@ -403,6 +403,7 @@ class SapienSimulator(Simulator):
 
     def is_success(self) -> bool:
         self._require_task()
+        self.task.on_step_end()  # read at the end of every key action and step
         return self.controller.halted or bool(self.task.evaluate())
 
     def scripted_solution(self):

@@ -97,6 +97,10 @@ class Task(ABC):
     def on_frame(self) -> None:
         """Called after every frame (override to track events)."""
 
+    def on_step_end(self) -> None:
+        """Called at the end of every key action or control step, before its success is read
+        (override for checks RLBench makes only there, such as a task's fail conditions)."""
+
     @abstractmethod
     def demonstration(self) -> Iterator[KeyAction]:
         """Key actions of the scripted demonstrator, computed from the true state as it goes."""

@@ -50,6 +50,12 @@ class CloseJar(Task):
     max_control_steps = 94  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "close the red jar"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "close the red jar",
+        "screw on the red jar lid",
+        "grasping the lid, lift it from the table and use it to seal the red jar",
+        "pick up the lid from the table and put it on the red jar",
+    )
     object_names = ("red jar", "green jar", "jar lid")
 
     def load(self) -> None:

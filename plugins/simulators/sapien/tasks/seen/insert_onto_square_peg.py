@@ -8,8 +8,10 @@ Task description:
 Randomisations:
     - when variations are sampled: the three spoke colours (from eight) and which of them is
       the target. Variation 0 is red, green, blue with the red spoke as the target;
-    - base centre x in [0.30, 0.40] m, y in [-0.10, 0.10] m, yaw in [-20, 20] degrees;
-    - ring centre x in [0.06, 0.14] m, y in [-0.20, 0.20] m, yaw in [-45, 45] degrees.
+    - base yaw in [-180, 180] degrees (RLBench's default base_rotation_bounds), centre x in
+      [0.30, 0.40] m less 0.06 m x |sin(yaw)| (keeps the far spoke in reach), y in [-0.10, 0.10] m;
+    - ring centre x in [0.06, 0.14] m, y in [-0.20, 0.20] m (redrawn while within 8.4 cm of the
+      base's footprint), yaw in [-45, 45] degrees.
 
 Success conditions:
     The ring is round the named spoke: its centre within 2.5 cm of the spoke's axis and below
@@ -40,6 +42,11 @@ class InsertOntoSquarePeg(Task):
     max_control_steps = 80  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the ring on the red spoke"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "put the ring on the red spoke",
+        "slide the ring onto the red colored spoke",
+        "place the ring onto the red spoke",
+    )
     object_names = ("square ring", "red spoke", "green spoke", "blue spoke")
 
     def load(self) -> None:
@@ -82,12 +89,19 @@ class InsertOntoSquarePeg(Task):
         self.variation = 0 if (colours, target) == (["red", "green", "blue"], 0) else 1
         self.episode_instruction = f"put the ring on the {colours[target]} spoke"
         self.episode_object_names = ["square ring", *(f"{c} spoke" for c in colours)]
-        yaw = np.deg2rad(rng.uniform(-20.0, 20.0))
-        self.base_pose = yaw_pose(rng.uniform(0.30, 0.40), rng.uniform(-0.10, 0.10), TABLE_TOP_Z, yaw)
+        yaw = np.deg2rad(rng.uniform(-180.0, 180.0))
+        # a base turned with its spokes along x moves nearer, so the far spoke stays in reach
+        x = rng.uniform(0.30, 0.40) - 0.06 * abs(np.sin(yaw))
+        self.base_pose = yaw_pose(x, rng.uniform(-0.10, 0.10), TABLE_TOP_Z, yaw)
         self.base = self._build_base(colours, self.base_pose)
         ring_yaw = np.deg2rad(rng.uniform(-45.0, 45.0))
-        self.ring.set_pose(yaw_pose(rng.uniform(0.06, 0.14), rng.uniform(-0.20, 0.20), TABLE_TOP_Z + RING_H / 2 + 0.001,
-                                    ring_yaw))
+        clear = RING_OUT * np.sqrt(2.0) + 0.02  # the ring's corner radius and a margin
+        while True:  # a base turned across the table may reach into the ring's area
+            ring_xy = np.array([rng.uniform(0.06, 0.14), rng.uniform(-0.20, 0.20)])
+            local = self.world_point(self.base_pose.inv(), [*ring_xy, TABLE_TOP_Z])
+            if abs(local[0]) > BASE_HALF[0] + clear or abs(local[1]) > BASE_HALF[1] + clear:
+                break
+        self.ring.set_pose(yaw_pose(*ring_xy, TABLE_TOP_Z + RING_H / 2 + 0.001, ring_yaw))
         body = self.ring.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
         body.set_linear_velocity([0, 0, 0])
         body.set_angular_velocity([0, 0, 0])

@@ -58,6 +58,13 @@ class LightBulbIn(Task):
     max_control_steps = 82  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "screw in the red light bulb"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "screw in the red light bulb",
+        "screw the light bulb from the red holder into the lamp",
+        "pick up the light bulb from the red stand, lift it up to just above the lamp, then screw "
+        "it down into the lamp in a clockwise fashion",
+        "put the light bulb from the red casing into the lamp",
+    )
     object_names = ("red light bulb", "green light bulb", "lamp")
 
     def _build_bulb(self, colour: str) -> sapien.Entity:

@@ -3,11 +3,12 @@
 Task description:
     A barbecue grill stands on the table with a piece of chicken (a drumstick) and a steak
     lying on its grate. The robot picks up the named piece of meat, puts it down on the table
-    beside the grill and lets go of it.
+    beside the grill's side nearest the robot and lets go of it.
 
 Randomisations:
     - the meat to take off (variation 0: chicken, 1: steak) when variations are sampled;
-    - grill centre x in [0.26, 0.36] m, y in [-0.12, 0.12] m, yaw in [-20, 20] degrees;
+    - grill centre x in [0.26, 0.36] m, y in [-0.12, 0.12] m, yaw in [-180, 180] degrees (RLBench's
+      default base_rotation_bounds);
     - which half of the grate each piece lies on, each piece's offset along the grill's depth
       in [-0.03, 0.03] m and its yaw in [-30, 30] degrees relative to the grill.
 
@@ -22,7 +23,7 @@ import numpy as np
 import sapien
 
 from ...objects import add_box, add_cylinder, look, physical, yaw_pose
-from ...scene import TABLE_TOP_Z
+from ...scene import ROBOT_BASE, TABLE_TOP_Z
 from ...task_base import Task, frame_quat, needs_turn, turn_gripper
 
 MEATS = ("chicken", "steak")
@@ -40,6 +41,11 @@ class MeatOffGrill(Task):
     max_control_steps = 88  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "take the chicken off the grill"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "take the chicken off the grill",
+        "pick up the chicken and place it next to the grill",
+        "remove the chicken from the grill and set it down to the side",
+    )
     object_names = ("chicken", "steak", "grill")
 
     def load(self) -> None:
@@ -88,7 +94,7 @@ class MeatOffGrill(Task):
         self.episode_instruction = f"take the {MEATS[self.variation]} off the grill"
         x = rng.uniform(0.26, 0.36)
         y = rng.uniform(-0.12, 0.12)
-        yaw = np.deg2rad(rng.uniform(-20.0, 20.0))
+        yaw = np.deg2rad(rng.uniform(-180.0, 180.0))
         self.grill_pose = yaw_pose(x, y, TABLE_TOP_Z, yaw)
         self.grill.set_root_pose(self.grill_pose)
         sides = (1, -1) if rng.integers(2) == 0 else (-1, 1)
@@ -134,10 +140,17 @@ class MeatOffGrill(Task):
         yield self.key(grasp + [0.0, 0.0, 0.10], quat, True)
         yield self.key(grasp, quat, False)
         yield self.key(grasp + [0.0, 0.0, 0.10], quat, False)
-        # down on the table in front of the grill (towards the robot), beside the piece's half
+        # down on the table beside the grill's side nearest the robot, level with the piece
         local = self._local_xy(centre)
-        drop_local = np.array([-GRILL_HALF[0] - DROP_OUT, local[1], 0.0])
-        drop = self.world_point(self.grill_pose, drop_local)
+        hx, hy = GRILL_HALF
+        sides = (
+            np.array([-hx - DROP_OUT, local[1], 0.0]),
+            np.array([hx + DROP_OUT, local[1], 0.0]),
+            np.array([local[0], -hy - DROP_OUT, 0.0]),
+            np.array([local[0], hy + DROP_OUT, 0.0]),
+        )
+        drops = [self.world_point(self.grill_pose, p) for p in sides]
+        drop = min(drops, key=lambda w: float(np.hypot(w[0] - ROBOT_BASE[0], w[1])))
         drop[2] = TABLE_TOP_Z + 2 * half_h - 0.012 + 0.008
         yield self.key(drop + [0.0, 0.0, 0.10], quat, False)
         yield self.key(drop, quat, True)

@@ -6,7 +6,8 @@ Task description:
 
 Randomisations:
     - the drawer to open (variation 0: top, 1: middle, 2: bottom) when variations are sampled;
-    - cabinet centre x in [0.48, 0.56] m, y in [-0.12, 0.12] m and yaw in [-20, 20] degrees.
+    - cabinet centre x in [0.48, 0.56] m, y in [-0.12, 0.12] m and yaw in [-22.5, 22.5] degrees
+      (RLBench's base_rotation_bounds).
 
 Success conditions:
     The named drawer is pulled out more than 0.15 m from its closed start position.
@@ -41,6 +42,11 @@ class OpenDrawer(Task):
     max_control_steps = 50  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "open the top drawer"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "open the top drawer",
+        "grip the top handle and pull the top drawer open",
+        "slide the top drawer open",
+    )
     object_names = ("top drawer handle", "middle drawer handle", "bottom drawer handle")
 
     def load(self) -> None:
@@ -102,7 +108,7 @@ class OpenDrawer(Task):
         self.episode_instruction = f"open the {POSITIONS[self.variation]} drawer"
         x = rng.uniform(0.48, 0.56)
         y = rng.uniform(-0.12, 0.12)
-        yaw = np.deg2rad(rng.uniform(-20.0, 20.0))
+        yaw = np.deg2rad(rng.uniform(-22.5, 22.5))
         # the cabinet's front (-x local) faces the robot
         self.cabinet.set_root_pose(yaw_pose(x, y, TABLE_TOP_Z, yaw))
         self.cabinet.set_qpos(np.zeros(3))

@@ -53,6 +53,12 @@ class PlaceCups(Task):
     max_control_steps = 418  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "place 1 cup on the cup holder"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "place 1 cup on the cup holder",
+        "pick up one cup and put it on the mug tree",
+        "move 1 mug from the table to the cup holder",
+        "pick up one cup and slide its handle onto a spoke on the mug holder",
+    )
     object_names = ("red cup", "green cup", "blue cup", "cup holder")
 
     def _build_mug(self, colour: str) -> sapien.Entity:

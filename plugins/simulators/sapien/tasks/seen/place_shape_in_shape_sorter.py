@@ -8,7 +8,9 @@ Task description:
 
 Randomisations:
     - the shape to sort (variation 0: cube; any of the four when variations are sampled);
-    - sorter centre x in [0.30, 0.34] m, y in [-0.05, 0.05] m, yaw in [-15, 15] degrees;
+    - sorter centre x in [0.30, 0.34] m, y in [-0.05, 0.05] m, yaw in [-45, 45] degrees (RLBench's
+      default is [-180, 180]; there the demonstrator fails 6 of 100 seeds, the cylinder and the
+      cuboid jamming in their slots with the sorter turned by 60 to 120 degrees);
     - shape centres x in [0.00, 0.14] m, y in [-0.24, 0.24] m, at least 0.09 m apart,
       yaw in [-45, 45] degrees.
 
@@ -63,6 +65,12 @@ class PlaceShapeInShapeSorter(Task):
     max_control_steps = 106  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the cube in the shape sorter"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "put the cube in the shape sorter",
+        "pick up the cube and put it in the sorter",
+        "place the cube into its slot in the shape sorter",
+        "slot the cube into the shape sorter",
+    )
     object_names = ("shape sorter", "cube", "cylinder", "cross", "cuboid")
 
     def _build_sorter(self) -> sapien.Entity:
@@ -111,7 +119,7 @@ class PlaceShapeInShapeSorter(Task):
         variation = int(rng.integers(len(SHAPES)))
         self.variation = variation if sample_variation else 0
         self.episode_instruction = f"put the {SHAPES[self.variation]} in the shape sorter"
-        yaw = np.deg2rad(rng.uniform(-15.0, 15.0))
+        yaw = np.deg2rad(rng.uniform(-45.0, 45.0))
         self.sorter.set_pose(yaw_pose(rng.uniform(0.30, 0.34), rng.uniform(-0.05, 0.05), TABLE_TOP_Z, yaw))
         positions: list[np.ndarray] = []
         while len(positions) < len(self.shapes):

@@ -9,7 +9,8 @@ Task description:
 
 Randomisations:
     - the slot (variation 0: left, 1: middle, 2: right) when variations are sampled;
-    - rack centre x in [0.30, 0.38] m, y in [-0.06, 0.06] m, yaw in [-20, 20] degrees;
+    - rack centre x in [0.30, 0.38] m, y in [-0.06, 0.06] m, yaw in [-45, 45] degrees (RLBench's
+      base_rotation_bounds);
     - bottle centre x in [0.02, 0.12] m, y in [-0.15, 0.15] m, lying across the table (its
       axis along y) with yaw in [-30, 30] degrees and the neck pointing to either side.
 
@@ -44,6 +45,15 @@ class PlaceWineAtRackLocation(Task):
     max_control_steps = 92  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "stack the wine bottle to the left of the rack"
+    # RLBench's variation 0 is the middle slot; ours (AGNOSTOS's instruction) is the left, so its
+    # templates are filled in with "left"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "stack the wine bottle to the left of the rack",
+        "slide the bottle onto the left part of the rack",
+        "put the wine on the left",
+        "leave the wine on the left section of the shelf",
+        "grasp the bottle and put it away on the left",
+    )
     object_names = ("wine bottle", "left slot", "middle slot", "right slot")
 
     def load(self) -> None:
@@ -88,7 +98,7 @@ class PlaceWineAtRackLocation(Task):
         variation = int(rng.integers(3))
         self.variation = variation if sample_variation else 0
         self.episode_instruction = f"stack the wine bottle to the {POSITIONS[self.variation]} of the rack"
-        yaw = np.deg2rad(rng.uniform(-20.0, 20.0))
+        yaw = np.deg2rad(rng.uniform(-45.0, 45.0))
         self.rack_pose = yaw_pose(rng.uniform(0.30, 0.38), rng.uniform(-0.06, 0.06), TABLE_TOP_Z, yaw)
         self.rack.set_root_pose(self.rack_pose)
         neck_side = 1.0 if rng.integers(2) == 0 else -1.0

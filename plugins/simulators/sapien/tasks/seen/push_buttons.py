@@ -6,7 +6,8 @@ Task description:
 
 Randomisations:
     - button positions anywhere in x in [0.00, 0.40] m, y in [-0.30, 0.30] m within 0.70 m
-      of the robot base, at least 0.14 m apart, base yaw in [-45, 45] degrees;
+      of the robot base, at least 0.14 m apart, base yaw in [-180, 180] degrees (RLBench's
+      SpawnBoundary default);
     - when variations are sampled: the three colours (from eight) and how many buttons to
       press (1 to 3) and in which order. Variation 0 is red, green, blue; press red.
 
@@ -40,6 +41,11 @@ class PushButtons(Task):
     max_control_steps = 104  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "push the red button"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "push the red button",
+        "press the red button",
+        "push down the button with the red base",
+    )
     object_names = ("red button", "green button", "blue button")
 
     def load(self) -> None:
@@ -81,7 +87,7 @@ class PushButtons(Task):
                 continue  # too far to press straight down
             if all(np.linalg.norm(p - q) >= 0.14 for q in positions):
                 positions.append(p)
-        yaws = rng.uniform(-np.pi / 4, np.pi / 4, 3)
+        yaws = rng.uniform(-np.pi, np.pi, 3)
         self.buttons = [
             self._build_button(c, yaw_pose(p[0], p[1], TABLE_TOP_Z, yaw)) for c, p, yaw in zip(colours, positions, yaws)
         ]

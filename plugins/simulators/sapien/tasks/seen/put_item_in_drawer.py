@@ -8,7 +8,7 @@ Task description:
 
 Randomisations:
     - the drawer (variation 0: top, 1: middle, 2: bottom) when variations are sampled;
-    - cabinet centre x in [0.48, 0.56] m, y in [-0.12, 0.12] m and yaw in [-20, 20] degrees
+    - cabinet centre x in [0.48, 0.56] m, y in [-0.12, 0.12] m and yaw in [-22.5, 22.5] degrees
       (as in open_drawer);
     - the item anywhere in x in [0.00, 0.10] m, y in [-0.36, 0.36] m (near the robot) with a
       random yaw, at least 8 cm clear of the space a pulled-out drawer and its handle take.
@@ -61,6 +61,12 @@ class PutItemInDrawer(OpenDrawer):
     max_control_steps = 208  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the item in the top drawer"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "put the item in the top drawer",
+        "put the block away in the top drawer",
+        "open the top drawer and place the block inside of it",
+        "leave the block in the top drawer",
+    )
     object_names = ("item", "top drawer handle", "middle drawer handle", "bottom drawer handle")
 
     def load(self) -> None:

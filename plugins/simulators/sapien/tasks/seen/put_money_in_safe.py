@@ -8,7 +8,9 @@ Task description:
 
 Randomisations:
     - the shelf (variation 0: bottom, 1: middle, 2: top) when variations are sampled;
-    - safe centre x in [0.54, 0.60] m, y in [-0.15, 0.15] m, yaw in [-15, 15] degrees;
+    - safe yaw in [-45, 45] degrees (the 90-degree span of RLBench's base_rotation_bounds,
+      centred on the door facing the robot), centre x in [0.54, 0.60] m, y in [-0.15, 0.15] m
+      shifted by 0.12 m x yaw / 45 degrees (keeps a turned safe's door within reach);
     - money centre, in the safe's frame: 0.08 to 0.12 m in front of the safe, -0.08 to 0.08 m
       sideways, yaw in [-20, 20] degrees relative to the safe.
 
@@ -49,6 +51,11 @@ class PutMoneyInSafe(Task):
     max_control_steps = 124  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "put the money away in the safe on the bottom shelf"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "put the money away in the safe on the bottom shelf",
+        "leave the money on the bottom shelf on the safe",
+        "place the stack of bank notes on the bottom shelf of the safe",
+    )
     object_names = ("money", "safe", "bottom shelf", "middle shelf", "top shelf")
 
     def load(self) -> None:
@@ -90,8 +97,10 @@ class PutMoneyInSafe(Task):
         variation = int(rng.integers(3))
         self.variation = variation if sample_variation else 0
         self.episode_instruction = f"put the money away in the safe on the {SHELVES[self.variation]} shelf"
-        yaw = np.deg2rad(rng.uniform(-15.0, 15.0))
-        self.safe_pose = yaw_pose(rng.uniform(0.54, 0.60), rng.uniform(-0.15, 0.15), TABLE_TOP_Z, yaw)
+        yaw = np.deg2rad(rng.uniform(-45.0, 45.0))
+        # a turned safe moves to the side its door turns away from, so the door stays in reach
+        y = rng.uniform(-0.15, 0.15) + 0.12 * yaw / (np.pi / 4)
+        self.safe_pose = yaw_pose(rng.uniform(0.54, 0.60), y, TABLE_TOP_Z, yaw)
         self.safe.set_root_pose(self.safe_pose)
         local = [-DEPTH / 2 - rng.uniform(0.08, 0.12), rng.uniform(-0.08, 0.08), MONEY_HALF[2] + 0.001]
         mx, my, mz = self.world_point(self.safe_pose, local)

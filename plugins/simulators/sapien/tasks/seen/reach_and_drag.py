@@ -48,6 +48,12 @@ class ReachAndDrag(Task):
     max_control_steps = 134  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "use the stick to drag the cube onto the red target"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "use the stick to drag the cube onto the red target",
+        "pick up the stick and use it to push or pull the cube onto the red target",
+        "drag the block towards the red square on the table top",
+        "grasping the stick by one end, pick it up and use the its other end to move the block onto the red target",
+    )
     object_names = ("stick", "cube", "red target", "green target", "blue target", "yellow target")
     graspable_objects = ("stick",)  # only the tool is held (what it moves is not)
 

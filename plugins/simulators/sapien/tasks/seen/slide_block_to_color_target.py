@@ -46,6 +46,13 @@ class SlideBlockToColorTarget(Task):
     max_control_steps = 62  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "slide the block to green target"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "slide the block to green target",
+        "slide the block onto the green square",
+        "push the block until it is sitting on top of the green target",
+        "slide the block towards the green plane",
+        "cover the green target with the block by pushing the block in its direction",
+    )
     object_names = ("block", "green target", "blue target", "pink target", "yellow target")
 
     def load(self) -> None:

@@ -52,6 +52,14 @@ class StackBlocks(Task):
     max_control_steps = 336  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "stack 2 red blocks"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "stack 2 red blocks",
+        "place 2 of the red cubes on top of each other",
+        "pick up and set down 2 red blocks on top of each other",
+        "build a tall tower out of 2 red cubes",
+        "arrange 2 red blocks in a vertical stack on the table top",
+        "set 2 red cubes on top of each other",
+    )
     object_names = (
         *(f"red block {i}" for i in range(1, 5)),
         *(f"green block {i}" for i in range(1, 5)),

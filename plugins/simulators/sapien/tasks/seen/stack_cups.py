@@ -50,6 +50,14 @@ class StackCups(Task):
     max_control_steps = 152  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "stack the other cups on top of the red cup"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "stack the other cups on top of the red cup",
+        "place two of the cups onto the odd cup out",
+        "put the remaining two cups on top of the red cup",
+        "pick up and set the cups down into the red cup",
+        "create a stack of cups with the red cup as its base",
+        "keeping the red cup on the table, stack the other two onto it",
+    )
     object_names = ("red cup", "green cup", "blue cup")
 
     def _build_cup(self, colour: str) -> sapien.Entity:

@@ -47,6 +47,12 @@ class SweepToDustpanOfSize(Task):
     max_control_steps = 86  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "sweep dirt to the tall dustpan"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "sweep dirt to the tall dustpan",
+        "sweep the dirt up into the tall dustpan",
+        "use the broom to brush the dirt into the tall dustpan",
+        "clean up the dirt with the tall pan",
+    )
     object_names = ("broom", "dirt", "tall dustpan", "short dustpan")
     graspable_objects = ("broom",)  # only the tool is held (what it moves is not)
 

@@ -8,7 +8,8 @@ Task description:
 
 Randomisations:
     - the tap to turn (variation 0: left, 1: right) when variations are sampled;
-    - faucet centre x in [0.20, 0.35] m, y in [-0.15, 0.15] m, yaw in [-30, 30] degrees;
+    - faucet centre x in [0.20, 0.35] m, y in [-0.15, 0.15] m, yaw in [-180, 180] degrees (RLBench's
+      default base_rotation_bounds);
     - each handle's starting angle in [-20, 20] degrees.
 
 Success conditions:
@@ -48,6 +49,11 @@ class TurnTap(Task):
     max_control_steps = 90  # 2 x the longest scripted demo (benchmarks/demo_lengths.py)
     split = "seen"
     instruction = "turn left tap"
+    phrasings = (  # RLBench's variation-0 phrasings, AGNOSTOS's instruction first
+        "turn left tap",
+        "rotate the left tap",
+        "grasp the left tap and turn it",
+    )
     object_names = ("left tap", "right tap", "faucet")
 
     def load(self) -> None:
@@ -85,7 +91,7 @@ class TurnTap(Task):
         self.variation = variation if sample_variation else 0
         self.episode_instruction = f"turn {SIDES[self.variation]} tap"
         x, y = rng.uniform(0.20, 0.35), rng.uniform(-0.15, 0.15)
-        yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
+        yaw = np.deg2rad(rng.uniform(-180.0, 180.0))
         self.faucet.set_root_pose(yaw_pose(x, y, TABLE_TOP_Z, yaw))  # spout (-x local) towards the robot
         self.start_q = np.deg2rad(rng.uniform(-20.0, 20.0, 2))
         self.faucet.set_qpos(self.start_q.copy())

@@ -7,8 +7,8 @@ Task description:
     through.
 
 Randomisations:
-    - hoop (ring centre) x in [0.28, 0.36] m, y in [-0.15, 0.15] m, yaw in [-30, 30] degrees
-      (the ring always sticks out from the board towards the robot's side);
+    - hoop (ring centre) x in [0.28, 0.36] m, y in [-0.15, 0.15] m, yaw in [-45, 45] degrees
+      (RLBench's base_rotation_bounds; the ring always sticks out from the board towards the robot's side);
     - ball centre x in [0.02, 0.14] m, y in [-0.20, 0.20] m.
 
 Success conditions:
@@ -85,7 +85,7 @@ class BasketballInHoop(Task):
 
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x, y = rng.uniform(0.28, 0.36), rng.uniform(-0.15, 0.15)
-        yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
+        yaw = np.deg2rad(rng.uniform(-45.0, 45.0))
         self.frame = yaw_pose(x, y, TABLE_TOP_Z, yaw)
         self.stand.set_pose(self.frame)
         self.hoop.set_pose(self.frame * sapien.Pose([0, 0, RING_H]))

@@ -10,13 +10,16 @@ Task description:
     there and lets go.
 
 Randomisations:
-    - wire centre x in [0.26, 0.34] m, y in [-0.06, 0.06] m, yaw in [-15, 15] degrees;
+    - wire centre x in [0.26, 0.34] m, y in [-0.06, 0.06] m, yaw in [-30, 30] degrees (RLBench's
+      default is [-180, 180]; at +-45 the demonstrator fails 3 of 40 seeds, at +-180 7 of 20: the
+      carry along a wire turned towards the robot leaves the wrist's range);
     - which end (left or right) is the start.
 
 Success conditions:
-    The wand's ring is over the end rest (around the wire), the wand never touched the wire
-    during the episode (any touch is a failure for good, watched every frame), AND
-    the gripper holds nothing.
+    The wand's ring is over the end rest (around the wire), the wand touched the wire at the
+    end of no key action or step (as RLBench, which reads its fail condition after each step
+    and then ends the episode; a touch during a move that has gone by then does not count),
+    AND the gripper holds nothing.
 """
 
 from __future__ import annotations
@@ -98,7 +101,7 @@ class BeatTheBuzz(Task):
 
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x, y = rng.uniform(0.26, 0.34), rng.uniform(-0.06, 0.06)
-        self.yaw = float(np.deg2rad(rng.uniform(-15.0, 15.0)))
+        self.yaw = float(np.deg2rad(rng.uniform(-30.0, 30.0)))
         self.start_side = 1.0 if rng.random() < 0.5 else -1.0  # along-wire sign of the start end
         self.frame = yaw_pose(x, y, TABLE_TOP_Z, self.yaw)  # wire frame: wire along local y
         self.stand.set_pose(self.frame)
@@ -116,15 +119,19 @@ class BeatTheBuzz(Task):
     def _local(self, p) -> np.ndarray:
         return np.asarray((self.frame.inv() * sapien.Pose(np.asarray(p, dtype=float))).p, dtype=float)
 
-    def on_frame(self) -> None:
-        if self.touched:
-            return
+    def wand_touches_wire(self) -> bool:
         pair = {self.wand.per_scene_id, self.wire.per_scene_id}
         for contact in self.world.scene.get_contacts():
             ids = {contact.bodies[0].entity.per_scene_id, contact.bodies[1].entity.per_scene_id}
             if ids == pair and any(p.separation < 5e-4 or abs(p.impulse).sum() > 1e-6 for p in contact.points):
-                self.touched = True
-                return
+                return True
+        return False
+
+    def on_step_end(self) -> None:
+        # RLBench reads its fail condition (the wand in the wire's sensor) after each step and
+        # then ends the episode as a failure; a touch during a move that has gone by then is not one
+        if not self.touched and self.wand_touches_wire():
+            self.touched = True
 
     def at_end(self) -> bool:
         """The ring is over the end rest, around the wire."""
@@ -134,7 +141,6 @@ class BeatTheBuzz(Task):
         return bool(over_rest and around)
 
     def evaluate(self) -> bool:
-        self.on_frame()
         return self.at_end() and not self.touched and not self.grasped()
 
     def demonstration(self):

@@ -6,7 +6,9 @@ Task description:
     closed gripper until the lid falls shut onto the keyboard.
 
 Randomisations:
-    - laptop centre x in [0.05, 0.17] m, y in [-0.20, 0.20] m, yaw in [-30, 30] degrees;
+    - laptop yaw in [-180, 180] degrees (RLBench's default base_rotation_bounds), centre x in
+      [0.05, 0.17] m plus 0.10 m x max(0, -cos(yaw)) (a laptop facing away stands further back,
+      its lid in reach), y in [-0.20, 0.20] m;
     - the lid's opening angle in [1.95, 2.20] rad (112 to 126 degrees; the hinge stops it there).
 
 Success conditions:
@@ -74,7 +76,8 @@ class CloseLaptopLid(Task):
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x = rng.uniform(0.05, 0.17)
         y = rng.uniform(-0.20, 0.20)
-        yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
+        yaw = np.deg2rad(rng.uniform(-180.0, 180.0))
+        x += 0.10 * max(0.0, -np.cos(yaw))  # a laptop facing away moves back: its lid stays in reach
         self.start_angle = float(rng.uniform(1.95, 2.20))
         # the lid leans back against its hinge stop: it stays open until pushed past the vertical
         self.laptop = self._build(self.start_angle, yaw_pose(x, y, TABLE_TOP_Z, yaw))

@@ -7,7 +7,9 @@ Task description:
     robot presses the button down with its closed gripper, which switches the light off.
 
 Randomisations:
-    - lamp centre x in [0.15, 0.35] m, y in [-0.20, 0.20] m, yaw in [-45, 45] degrees;
+    - lamp centre x in [0.15, 0.35] m, y in [-0.20, 0.20] m, yaw in [-90, 90] degrees (RLBench's
+      default is [-180, 180]; beyond about 125 degrees the stem and shade stand between the
+      robot and the button, and the demonstrator's press failed in 6 of 9 such seeds);
     - the direction of the lamp's arm: in [-30, 30] degrees from straight back.
 
 Success conditions:
@@ -88,7 +90,7 @@ class LampTask(Task):
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x = rng.uniform(0.15, 0.35)
         y = rng.uniform(-0.20, 0.20)
-        yaw = np.deg2rad(rng.uniform(-45.0, 45.0))
+        yaw = np.deg2rad(rng.uniform(-90.0, 90.0))
         arm_yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
         self.lamp = self._build(arm_yaw, yaw_pose(x, y, TABLE_TOP_Z, yaw))
         self.lamp.set_qpos(np.zeros(1))

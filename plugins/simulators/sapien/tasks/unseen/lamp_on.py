@@ -7,7 +7,7 @@ Task description:
     switches the light on.
 
 Randomisations:
-    - lamp centre x in [0.15, 0.35] m, y in [-0.20, 0.20] m, yaw in [-45, 45] degrees;
+    - lamp centre x in [0.15, 0.35] m, y in [-0.20, 0.20] m, yaw in [-90, 90] degrees (as lamp_off);
     - the direction of the lamp's arm: in [-30, 30] degrees from straight back.
 
 Success conditions:

@@ -7,8 +7,8 @@ Task description:
     cradle and lets go of it.
 
 Randomisations:
-    - phone centre x in [0.04, 0.22] m, y in [-0.25, 0.25] m, yaw in [-60, 60] degrees;
-    - base centre x in [0.30, 0.42] m, y in [-0.22, 0.22] m, yaw in [-45, 45] degrees, at
+    - phone centre x in [0.04, 0.22] m, y in [-0.25, 0.25] m, yaw in [-180, 180] degrees;
+    - base centre x in [0.30, 0.42] m, y in [-0.22, 0.22] m, yaw in [-180, 180] degrees, at
       least 0.20 m from the phone.
 
 Success conditions:
@@ -30,8 +30,8 @@ CRADLE_HALF = (0.095, 0.042)  # inner half size of the cradle
 FLOOR = 0.015  # cradle floor above the table
 RIM_H, RIM_T = 0.014, 0.008  # rim height above the floor, thickness
 GRIP_DEPTH = 0.010  # the TCP this far below the phone's top when holding it
-SPAWN_PHONE = ((0.04, 0.22), (-0.25, 0.25), 60.0)
-SPAWN_BASE = ((0.30, 0.42), (-0.22, 0.22), 45.0)
+SPAWN_PHONE = ((0.04, 0.22), (-0.25, 0.25), 180.0)
+SPAWN_BASE = ((0.30, 0.42), (-0.22, 0.22), 180.0)
 MIN_GAP = 0.20
 
 

@@ -10,8 +10,8 @@ Task description:
 Randomisations:
     - book centres x in [0.00, 0.16] m, y in [-0.26, 0.26] m, at least 0.12 m apart, each
       with yaw in [-30, 30] degrees (the spine towards the robot or away from it);
-    - bookshelf centre x in [0.32, 0.38] m, y in [-0.08, 0.08] m, yaw in [-20, 20] degrees,
-      the open front towards the robot.
+    - bookshelf centre x in [0.32, 0.38] m, y in [-0.08, 0.08] m, yaw in [-90, 90] degrees
+      (RLBench's base_rotation_bounds; at 0 the open front faces the robot).
 
 Success conditions:
     The first N books (variation 0, evaluated: N = 1) rest on the top shelf: each book's
@@ -36,7 +36,7 @@ RAIL = 0.05  # height of the top shelf's side walls and back above its surface
 GRIP_DEPTH = 0.02  # the TCP this far below a book's top when holding it
 SLOTS = (0.0, 0.06, -0.06)  # where the demonstrator stands books 1, 2, 3 along the shelf
 SPAWN_BOOKS = ((0.0, 0.16), (-0.26, 0.26), 0.12)
-SPAWN_SHELF = ((0.32, 0.38), (-0.08, 0.08), 20.0)
+SPAWN_SHELF = ((0.32, 0.38), (-0.08, 0.08), 90.0)
 
 
 

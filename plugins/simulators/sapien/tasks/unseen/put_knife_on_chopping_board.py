@@ -10,8 +10,8 @@ Task description:
 
 Randomisations:
     - knife block centre x in [0.05, 0.20] m, |y| in [0.17, 0.28] m (either side), yaw in
-      [-45, 45] degrees;
-    - chopping board centre x in [0.30, 0.38] m, y in [-0.08, 0.08] m, yaw in [-30, 30]
+      [-180, 180] degrees (RLBench's SpawnBoundary default);
+    - chopping board centre x in [0.30, 0.38] m, y in [-0.08, 0.08] m, yaw in [-180, 180]
       degrees, at least 0.25 m from the block.
 
 Success conditions:
@@ -39,8 +39,8 @@ BOARD_HALF = (0.17, 0.11, 0.01)  # chopping board
 GRIP_FROM_BUTT = 0.015  # the TCP this far from the handle's end
 DROP = 0.012  # the knife's tip this high above the board when let go
 TILT = np.deg2rad(45.0)  # the knife points this far below the horizontal when let go
-SPAWN_BLOCK = ((0.05, 0.20), (0.17, 0.28), 45.0)
-SPAWN_BOARD = ((0.30, 0.38), (-0.08, 0.08), 30.0)
+SPAWN_BLOCK = ((0.05, 0.20), (0.17, 0.28), 180.0)
+SPAWN_BOARD = ((0.30, 0.38), (-0.08, 0.08), 180.0)
 MIN_GAP = 0.25
 
 

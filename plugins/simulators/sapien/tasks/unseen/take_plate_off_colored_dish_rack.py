@@ -8,7 +8,9 @@ Task description:
     and lets go of it (the plate then falls flat onto the table).
 
 Randomisations:
-    - rack centre x in [0.28, 0.38] m, y in [-0.15, 0.15] m, yaw in [-30, 30] degrees;
+    - rack centre x in [0.28, 0.38] m, y in [-0.15, 0.15] m, yaw in [-60, 60] degrees (RLBench's
+      default is [-180, 180]; turned further, the demonstrator's grasp across the plate's rim
+      has no joint solution in about half the scenes);
     - which slot (left, middle, right) has which colour; the plate is always in the black one.
 
 Success conditions:
@@ -87,7 +89,7 @@ class TakePlateOffColoredDishRack(Task):
 
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x, y = rng.uniform(0.28, 0.38), rng.uniform(-0.15, 0.15)
-        yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
+        yaw = np.deg2rad(rng.uniform(-60.0, 60.0))
         self.rack_pose = yaw_pose(x, y, TABLE_TOP_Z, yaw)
         self.rack.set_pose(self.rack_pose)
         order = rng.permutation(len(COLOURS))  # slot k (along the rack's y) gets colour order[k]

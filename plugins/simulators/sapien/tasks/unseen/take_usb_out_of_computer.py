@@ -7,7 +7,9 @@ Task description:
     port, puts it down on the table and lets go of it.
 
 Randomisations:
-    - computer centre x in [0.40, 0.48] m, y in [-0.15, 0.15] m, yaw in [-30, 30] degrees;
+    - computer centre x in [0.40, 0.48] m, y in [-0.15, 0.15] m, yaw in [-60, 60] degrees (RLBench's
+      default is [-180, 180]; from about 75 degrees the ports face away and the stick is out of
+      the demonstrator's reach);
     - which of the two front ports (left or right of the centre) holds the stick.
 
 Success conditions:
@@ -90,7 +92,7 @@ class TakeUsbOutOfComputer(Task):
 
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x, y = rng.uniform(0.40, 0.48), rng.uniform(-0.15, 0.15)
-        yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
+        yaw = np.deg2rad(rng.uniform(-60.0, 60.0))
         self.port = int(rng.integers(2))
         self.computer_pose = yaw_pose(x, y, TABLE_TOP_Z, yaw)
         self.computer.set_pose(self.computer_pose)

@@ -7,7 +7,8 @@ Task description:
     it falls down onto the bowl.
 
 Randomisations:
-    - toilet centre x in [0.05, 0.15] m, y in [-0.20, 0.20] m, yaw in [-30, 30] degrees;
+    - toilet centre x in [0.05, 0.15] m, y in [-0.20, 0.20] m, yaw in [-45, 45] degrees (RLBench's
+      base_rotation_bounds);
     - the raised seat's angle in [1.80, 1.92] rad (103 to 110 degrees; the hinge stops it there).
 
 Success conditions:
@@ -97,7 +98,7 @@ class ToiletSeatDown(Task):
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x = rng.uniform(0.05, 0.15)
         y = rng.uniform(-0.20, 0.20)
-        yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
+        yaw = np.deg2rad(rng.uniform(-45.0, 45.0))
         self.start_angle = float(rng.uniform(1.80, 1.92))
         # the raised seat leans back against its hinge stop until pushed past the vertical
         self.toilet = self._build(self.start_angle, yaw_pose(x, y, TABLE_TOP_Z, yaw))

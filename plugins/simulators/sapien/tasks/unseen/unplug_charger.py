@@ -7,7 +7,8 @@ Task description:
     40 degrees down, fingers on the charger's sides) and pulls it straight out of the socket.
 
 Randomisations:
-    - wall centre x in [0.36, 0.44] m, y in [-0.15, 0.15] m, yaw in [-30, 30] degrees;
+    - wall centre x in [0.36, 0.44] m, y in [-0.15, 0.15] m, yaw in [-45, 45] degrees (RLBench's
+      base_rotation_bounds);
     - the socket's position along the wall, -0.06 to 0.06 m from its centre.
 
 Success conditions:
@@ -93,7 +94,7 @@ class UnplugCharger(Task):
 
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x, y = rng.uniform(0.36, 0.44), rng.uniform(-0.15, 0.15)
-        yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
+        yaw = np.deg2rad(rng.uniform(-45.0, 45.0))
         along = rng.uniform(-0.06, 0.06)
         wall = yaw_pose(x, y, TABLE_TOP_Z, yaw)
         self.wall.set_pose(wall)
