@@ -66,6 +66,18 @@ draft_tokens (16)
     and keeps those the model itself would pick (`xicm.plugins.llms.fast_decode`); 0 decodes
     one token per pass. Used only for greedy decoding without logits processors; sampling
     goes through ``generate`` (with the prefix cache and the action-list stop).
+grammar ("actions")
+    ``actions``: the reply is constrained to the action grammar (`xicm.plugins.llms.action_grammar`:
+    a list of 1-26 in-range 7-integer groups, nothing else) with llguidance. The greedy fast path
+    appends forced tokens without asking the model and picks the argmax over the allowed tokens
+    (`xicm.plugins.llms.grammar_decode.grammar_greedy_decode`); ``generate`` (sampling,
+    ``fast: false``, batches) gets a logits processor that masks the disallowed tokens. The
+    reply is that of grammar-constrained ``generate``. ``none``: free decoding (the paper presets).
+    The tokenizer is converted for llguidance once per process, on the first reply.
+reduced_output_layer (True)
+    With the grammar on the greedy fast path, evaluate the output layer only on the tokens the
+    grammar allows at each position instead of the whole vocabulary (Gemma 3: 262,144 rows, most
+    of the 270M model's compute per token); replies are the same.
 Greedy replies of the fast path are the plain ones (tests and benchmarks/bench_llm_stage.py
 compare them on the embedded model). `complete_batch(prompts)` answers several prompts in one
 left-padded ``generate`` call (`xicm.plugins.llms.batch_generate`).
