@@ -1,8 +1,18 @@
-"""LLM-stage seconds per call and per episode with the embedded Gemma 3 270M: plain `generate`
-(``llm.fast=false``) against the fast path (stop at the action list, prefix cache, draft-checking
-greedy loop), on the same real X-ICM prompts, side by side (prints figures; not a test).
+"""LLM-stage seconds per call and per episode with the embedded Gemma 3 270M, side by side on the
+same real X-ICM prompts (prints figures; not a test). Modes:
+
+    plain            plain `generate` (llm.fast=false, llm.grammar=none)
+    fast             today's fast path (stop at the action list, prefix cache, draft-checking
+                     greedy loop), llm.grammar=none
+    grammar          the fast path under llm.grammar=actions, output layer over the whole vocabulary
+    grammar_reduced  the same with the output layer evaluated only on the allowed tokens (default)
+
+For each it reports LLM seconds per call and per episode, the parse_error rate (the project's
+parser, `xicm.core.parsing.parse_actions`) and whether the parsed actions agree with the first
+mode's; replies of the two grammar modes must be identical.
 
     .venv/bin/python benchmarks/bench_llm_stage.py                      # 2 episodes x 2 calls, k=18
+    .venv/bin/python benchmarks/bench_llm_stage.py --modes grammar_reduced,fast --episodes 5 --calls 10
     .venv/bin/python benchmarks/bench_llm_stage.py --episodes 1 --calls 3 --k 6 --batch
 
 Prompts: the xicm prompt builder on demos of a local pool (data/pools/seen.h5, else smoke.h5).
@@ -10,8 +20,8 @@ Per episode a query demo is drawn (seeded), its k demos are drawn from the rest 
 (other demos of its task excluded when the pool has other tasks), and the policy's re-asks
 are imitated: call c of an episode has the same demos and the query's objects moved by c cm,
 as when the policy asks again after executing the previous reply. Decoding options come from
-conf/llm/gemma3_270m.yaml (max_new_tokens, chat_template, stop); plain and fast calls alternate,
-so load from other processes hits both alike. `--batch` also answers the first call of every
+conf/llm/gemma3_270m.yaml (max_new_tokens, chat_template, stop); the modes alternate call by call,
+so load from other processes hits all alike. `--batch` also answers the first call of every
 episode with one `complete_batch` call.
 """
 
@@ -32,8 +42,12 @@ def default_pool() -> Path:
     return seen if seen.exists() else ROOT / "data" / "pools" / "smoke.h5"
 
 
-def build_episodes(pool_path, n_episodes: int, calls_per_episode: int, k: int, seed: int = 0):
-    """n_episodes lists of calls_per_episode real X-ICM prompts (see the module docstring)."""
+def build_episodes(pool_path, n_episodes: int, calls_per_episode: int, k: int, seed: int = 0, shared_demos: bool = False):
+    """n_episodes lists of calls_per_episode real X-ICM prompts (see the module docstring).
+
+    shared_demos: every episode is episode 0's task with the same demos and its objects moved by
+    3 cm more per episode (consecutive episodes of one task, whose instruction retrieves the same
+    demos), so the prefix cache carries over from one episode to the next as in a run."""
     from xicm.core.dataset import load_pool, pool_info
     from xicm.core.types import Query
     from xicm.plugins.prompts.xicm_prompt import XicmPromptBuilder
@@ -43,13 +57,14 @@ def build_episodes(pool_path, n_episodes: int, calls_per_episode: int, k: int, s
     builder = XicmPromptBuilder()
     episodes = []
     for episode in range(n_episodes):
-        rng = np.random.default_rng([seed, episode])
+        rng = np.random.default_rng([seed, 0 if shared_demos else episode])
         query_demo = pool[int(rng.integers(len(pool)))]
         others = [d for d in pool if d.task != query_demo.task] or [d for d in pool if d is not query_demo]
         demos = [others[int(i)] for i in rng.choice(len(others), size=min(k, len(others)), replace=False)]
         calls = []
         for call in range(calls_per_episode):
-            objects = {name: (x + 0.01 * call, y, z) for name, (x, y, z) in query_demo.objects.items()}
+            shift = 0.01 * call + (0.03 * episode if shared_demos else 0.0)
+            objects = {name: (x + shift, y, z) for name, (x, y, z) in query_demo.objects.items()}
             query = Query(query_demo.task, query_demo.instruction, objects)
             calls.append(builder.build(demos, query, workspace))
         episodes.append(calls)
@@ -68,6 +83,14 @@ def llm_options(max_new_tokens: int | None) -> dict:
     return options
 
 
+MODES = {
+    "plain": {"fast": False, "grammar": "none"},
+    "fast": {"grammar": "none"},
+    "grammar": {"grammar": "actions", "reduced_output_layer": False},
+    "grammar_reduced": {"grammar": "actions", "reduced_output_layer": True},
+}
+
+
 def timed(fn, *args):
     t0 = time.perf_counter()
     out = fn(*args)
@@ -80,63 +103,79 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=2)
     parser.add_argument("--calls", type=int, default=2, help="LLM calls per episode")
     parser.add_argument("--k", type=int, default=18, help="demos per prompt")
+    parser.add_argument("--modes", default=",".join(MODES), help=f"comma-separated, from: {', '.join(MODES)}")
     parser.add_argument("--max-new-tokens", type=int, default=None, help="default: the config's")
     parser.add_argument("--draft-tokens", type=int, default=16)
+    parser.add_argument("--torch-threads", type=int, default=None, help="default: torch's")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--shared-demos", action="store_true", help="episodes of one task share their demos (see build_episodes)")
     parser.add_argument("--batch", action="store_true", help="also time complete_batch on the first calls")
     args = parser.parse_args()
+    modes = [m.strip() for m in args.modes.split(",") if m.strip()]
+    unknown = [m for m in modes if m not in MODES]
+    if unknown:
+        parser.error(f"--modes: unknown {', '.join(unknown)}; available: {', '.join(MODES)}")
 
     import torch
-    from xicm.core.parsing import parse_actions
+    from xicm.core.parsing import ParseError, parse_actions
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
 
-    episodes = build_episodes(args.pool, args.episodes, args.calls, args.k, args.seed)
+    episodes = build_episodes(args.pool, args.episodes, args.calls, args.k, args.seed, args.shared_demos)
     options = llm_options(args.max_new_tokens)
-    plain = TransformersLocalLLM(fast=False, **options)
-    fast = TransformersLocalLLM(draft_tokens=args.draft_tokens, **options)
-    plain.load()
-    fast.load()
-    print(f"pool {args.pool.name}, {args.episodes} episodes x {args.calls} calls, k={args.k}, "
-          f"options {options}, draft_tokens={args.draft_tokens}, torch threads {torch.get_num_threads()}")
-    print("episode call prompt_tokens reused plain_s fast_s (prefill+decode) plain_tokens fast_tokens same_text same_parse")
-    rows = []
-    plain_replies = {}
+    options["torch_threads"] = args.torch_threads
+    llms = {m: TransformersLocalLLM(draft_tokens=args.draft_tokens, **{**options, **MODES[m]}) for m in modes}
+    matchers = None
+    for llm in llms.values():
+        llm.load()
+        if llm.grammar != "none":  # one tokenizer conversion for all grammar modes
+            if matchers is None:
+                t0 = time.perf_counter()
+                matchers = llm.matchers()
+                print(f"llguidance tokenizer conversion: {time.perf_counter() - t0:.1f} s (once per process)")
+            llm._matchers = matchers
+    print(f"pool {args.pool}, {args.episodes} episodes x {args.calls} calls, k={args.k}, options {options}, "
+          f"draft_tokens={args.draft_tokens}, torch threads {torch.get_num_threads()}")
+    print("episode call prompt_tokens " + " ".join(f"{m}_s" for m in modes) + "  (reused prompt tokens; new tokens)")
+    seconds = {m: [] for m in modes}  # (episode, s) per call
+    parsed = {m: [] for m in modes}
+    replies = {m: {} for m in modes}
     for e, calls in enumerate(episodes):
         for c, prompt in enumerate(calls):
-            ids = plain._fit(plain.encode(prompt.messages))
-            plain_reply, plain_s = timed(plain.complete, prompt)
-            fast_reply, fast_s = timed(fast.complete, prompt)
-            end = fast.reply_text(plain_reply)  # plain's text cut where the fast path stops
-            same_text = fast_reply == end
-            same_parse = parse_actions(fast_reply, prompt.workspace) == parse_actions(plain_reply, prompt.workspace)
-            n_plain = len(plain._tokenizer(plain_reply, add_special_tokens=False)["input_ids"])
-            n_fast = len(fast._tokenizer(fast_reply, add_special_tokens=False)["input_ids"])
-            rows.append((e, c, plain_s, fast_s, same_text, same_parse))
-            plain_replies[e, c] = plain_reply
-            split = fast.last_call
-            print(f"{e} {c} {len(ids)} {split['reused_tokens']} {plain_s:.1f} {fast_s:.1f} "
-                  f"({split['prefill_s']:.1f}+{split.get('decode_s', float('nan')):.1f}) "
-                  f"{n_plain} {n_fast} {same_text} {same_parse}")
-            if not same_text:
-                print(f"  plain: {plain_reply!r}\n  fast:  {fast_reply!r}")
-    per_call = {name: statistics.median(r[i] for r in rows) for name, i in (("plain", 2), ("fast", 3))}
-    per_episode = {
-        name: statistics.median(sum(r[i] for r in rows if r[0] == e) for e in range(args.episodes))
-        for name, i in (("plain", 2), ("fast", 3))
-    }
-    print(f"median s per call:    plain {per_call['plain']:.1f}  fast {per_call['fast']:.1f}  "
-          f"ratio {per_call['plain'] / per_call['fast']:.2f}x")
-    print(f"median s per episode: plain {per_episode['plain']:.1f}  fast {per_episode['fast']:.1f}  "
-          f"ratio {per_episode['plain'] / per_episode['fast']:.2f}x")
-    print(f"identical replies (text up to the fast stop): {all(r[4] for r in rows)}; "
-          f"identical parsed actions: {all(r[5] for r in rows)}")
+            n_prompt = len(llms[modes[0]]._fit(llms[modes[0]].encode(prompt.messages)))
+            row = []
+            for m in modes:
+                reply, s = timed(llms[m].complete, prompt)
+                seconds[m].append((e, s))
+                parsed[m].append(parse_actions(reply, prompt.workspace))
+                replies[m][e, c] = reply
+                split = llms[m].last_call
+                row.append(f"{s:.1f}" + (f"({split.get('reused_tokens', 0)};{split.get('new_tokens', '-')})" if llms[m].fast else ""))
+            print(f"{e} {c} {n_prompt} " + " ".join(row), flush=True)
+            for m in modes:
+                print(f"    {m:16s} {replies[m][e, c]!r}")
+    n_calls = len(parsed[modes[0]])
+    print(f"\n{n_calls} calls per mode; median s per call / per episode; ratio to 'fast' per episode; parse_error rate; "
+          f"parsed actions equal to {modes[0]}'s")
+    totals = {m: [sum(s for ep, s in seconds[m] if ep == e) for e in range(args.episodes)] for m in modes}
+    per_episode = {m: statistics.median(totals[m]) for m in modes}
+    for m in modes:
+        errors = sum(isinstance(p, ParseError) for p in parsed[m])
+        agree = sum(a == b for a, b in zip(parsed[m], parsed[modes[0]]))
+        ratio = f"{per_episode['fast'] / per_episode[m]:.1f}x" if "fast" in per_episode else "-"
+        print(f"{m:16s} {statistics.median(s for _, s in seconds[m]):7.1f} s/call {per_episode[m]:7.1f} s/episode  "
+              f"{ratio:>6s}  parse_error {errors}/{n_calls} ({errors / n_calls:.0%})  same actions {agree}/{n_calls}")
+    if args.shared_demos and args.episodes > 1:
+        print("episodes after the first (their demos' prefix cached by the first): median s/episode "
+              + ", ".join(f"{m} {statistics.median(totals[m][1:]):.1f}" for m in modes))
+    if "grammar" in modes and "grammar_reduced" in modes:
+        same = replies["grammar"] == replies["grammar_reduced"]
+        print(f"grammar_reduced replies identical to grammar (full vocabulary): {same}")
     if args.batch:
+        first = llms[modes[-1]]
         firsts = [calls[0] for calls in episodes]
-        batch, batch_s = timed(fast.complete_batch, firsts)
-        single = [fast.reply_text(plain_replies[e, 0]) for e in range(args.episodes)]
-        print(f"complete_batch of {len(firsts)} first calls: {batch_s:.1f} s "
-              f"(plain one by one above: {sum(r[2] for r in rows if r[1] == 0):.1f} s); "
-              f"identical to one by one: {batch == single}")
+        batch, batch_s = timed(first.complete_batch, firsts)
+        single = [replies[modes[-1]][e, 0] for e in range(args.episodes)]
+        print(f"complete_batch ({modes[-1]}) of {len(firsts)} first calls: {batch_s:.1f} s; identical to one by one: {batch == single}")
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """The fast path of transformers_local (stop at the action list, prefix cache, draft-checking
 greedy loop, batches) gives the plain `generate` replies: tiny offline Gemma 3 models in
-seconds, and one slow test on the real embedded Gemma 3 270M with real X-ICM prompts."""
+seconds, and one slow test on the real embedded Gemma 3 270M with real X-ICM prompts. All with
+llm.grammar: none (free decoding, the paper presets'); tests/test_llm_grammar.py covers the grammar."""
 
 from __future__ import annotations
 
@@ -95,7 +96,7 @@ def tiny_dir(tmp_path_factory) -> Path:
 
 def tiny(tiny_dir, **options) -> TransformersLocalLLM:
     settings = {"model": str(tiny_dir), "max_new_tokens": 40, "device": "cpu", "chat_template": "raw", "stop": None}
-    llm = TransformersLocalLLM(**{**settings, **options})
+    llm = TransformersLocalLLM(grammar="none", **{**settings, **options})
     llm.load()
     return llm
 
@@ -167,10 +168,10 @@ def test_batch_replies_equal_one_by_one_replies(tiny_dir):
 def test_options_and_identity(tiny_dir):
     with pytest.raises(ConfigError, match="^llm.draft_tokens must be an integer >= 0, not -1$"):
         get_registry().create("llm", {"name": "transformers_local", "model": str(tiny_dir), "draft_tokens": -1})
-    fast = json.loads(TransformersLocalLLM(model=str(tiny_dir)).identity())
-    plain = json.loads(TransformersLocalLLM(model=str(tiny_dir), fast=False).identity())
+    fast = json.loads(TransformersLocalLLM(grammar="none", model=str(tiny_dir)).identity())
+    plain = json.loads(TransformersLocalLLM(grammar="none", model=str(tiny_dir), fast=False).identity())
     assert fast["stop_at_action_list"] is True and "stop_at_action_list" not in plain
-    no_stop = TransformersLocalLLM(model=str(tiny_dir), stop_at_action_list=False, draft_tokens=3, prefix_cache=False)
+    no_stop = TransformersLocalLLM(grammar="none", model=str(tiny_dir), stop_at_action_list=False, draft_tokens=3, prefix_cache=False)
     assert json.loads(no_stop.identity()) == plain  # these options never change a reply
 
 
@@ -238,8 +239,8 @@ def test_embedded_gemma_fast_path_gives_the_plain_replies(capsys, smoke_pool):
 
     episodes = xicm_prompts(smoke_pool[0], n_episodes=1, calls_per_episode=2, k=4)
     options = {"max_new_tokens": 96, "chat_template": "raw", "max_prompt_tokens": 8192}
-    plain = TransformersLocalLLM(fast=False, **options)
-    fast = TransformersLocalLLM(**options)
+    plain = TransformersLocalLLM(grammar="none", fast=False, **options)
+    fast = TransformersLocalLLM(grammar="none", **options)
     for prompt in episodes[0]:
         ids = plain.encode(prompt.messages)
         plain_ids, fast_ids = plain.generate_ids(ids), fast.generate_ids(ids)

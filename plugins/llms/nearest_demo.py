@@ -16,6 +16,10 @@ The rule, for the demo at rank ``demo_rank`` of Prompt.demos (default 0, the bes
 Fallbacks: a demo or query without objects gives the demo's actions unchanged; no demo at
 all (or demo_rank beyond the list) gives ``[]``, which the parser reports as a parse error.
 Everything happens in metres; the text is quantised only at the end, like a demo's own text.
+
+``grammar`` (none | actions) is accepted like the model LLMs' option (the paper presets set
+``llm.grammar: none`` whichever LLM runs) and changes nothing: the reply is written by
+``format_actions`` from the demo's own actions, so there is no free text to constrain.
 """
 
 from __future__ import annotations
@@ -27,7 +31,8 @@ from dataclasses import dataclass, field
 from xicm.core.encoding import format_actions
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import LLM
-from xicm.core.schema import at_least
+from xicm.core.schema import at_least, one_of
+from xicm.plugins.llms.action_grammar import GRAMMARS, check_grammar
 from xicm.core.types import Demo, KeyAction, Prompt, Query
 
 
@@ -61,6 +66,7 @@ def reanchor(demo: Demo, query: Query) -> list[KeyAction]:
 @dataclass
 class NearestDemoOptions:
     demo_rank: int = field(default=0, metadata=at_least(0))  # 0: the best retrieved demo
+    grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))  # no effect (module docstring)
 
 
 class NearestDemoLLM(LLM):
@@ -70,8 +76,9 @@ class NearestDemoLLM(LLM):
     # rounds them to 1 cm), so the message-keyed response cache must never answer for it.
     deterministic = False
 
-    def __init__(self, demo_rank: int = 0):
+    def __init__(self, demo_rank: int = 0, grammar: str = "actions"):
         self.demo_rank = int(demo_rank)
+        self.grammar = check_grammar(str(grammar))
 
     def complete(self, prompt: Prompt) -> str:
         if self.demo_rank >= len(prompt.demos):

@@ -22,6 +22,21 @@ temperature (0.1), top_p (0.001), max_tokens (256)
     The paper's decoding values; ``null`` leaves a field out of the request.
 extra ({})
     More request fields merged into the body (e.g. ``seed``, ``stop``, ``repetition_penalty``).
+grammar ("actions")
+    ``actions``: each request asks the server to constrain the reply to the action grammar of
+    `xicm.plugins.llms.action_grammar` (a list of 1-26 ``[x, y, z, roll, pitch, yaw, gripper]``
+    integer groups in range, nothing else), in the field ``server`` names. ``none``: no constraint.
+server ("vllm")
+    Which structured-output field carries the grammar (merged into the request body; a key of
+    ``extra`` with the same name wins):
+    ``vllm``: ``"structured_outputs": {"regex": ...}`` (vLLM docs, features/structured_outputs:
+    the field that replaced ``guided_regex``, removed in v0.12.0);
+    ``sglang``: ``"regex": ...`` (SGLang docs, advanced_features/structured_outputs: one of
+    ``json_schema``, ``regex`` or ``ebnf`` per request);
+    ``llamacpp``: ``"grammar": <GBNF>`` (llama.cpp tools/server/README.md: the server's
+    /completion options, ``grammar`` included, are accepted by /v1/chat/completions;
+    grammars/README.md for GBNF);
+    ``none``: no field (a server without structured outputs; the grammar is then not enforced).
 timeout_s (120)
     Timeout of one attempt (connect, and each read), in seconds.
 retries (3)
@@ -49,7 +64,8 @@ from xicm.core.errors import ConfigError, LLMError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import LLM
 from xicm.core.types import Prompt
-from xicm.plugins.llms.openai_compatible_options import OpenAICompatibleOptions
+from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX, check_grammar
+from xicm.plugins.llms.openai_compatible_options import SERVERS, OpenAICompatibleOptions
 from xicm.plugins.llms.options import to_plain
 from xicm.plugins.llms.rendering import render_plain, render_raw
 
@@ -72,6 +88,8 @@ class OpenAICompatibleLLM(LLM):
         extra: dict[str, Any] | None = None,
         timeout_s: float = 120.0,
         retries: int = 3,
+        grammar: str = "actions",
+        server: str = "vllm",
     ):
         if not model:
             raise ConfigError("llm 'openai_compatible' needs a model name (llm.model), e.g. the server's model id")
@@ -79,6 +97,10 @@ class OpenAICompatibleLLM(LLM):
             raise ConfigError(f"llm.mode '{mode}' is unknown; available: {', '.join(MODES)}")
         if completion_format not in ("plain", "raw"):
             raise ConfigError(f"llm.completion_format '{completion_format}' is unknown; available: plain, raw")
+        if server not in SERVERS:
+            raise ConfigError(f"llm.server '{server}' is unknown; available: {', '.join(SERVERS)}")
+        self.grammar = check_grammar(str(grammar))
+        self.server = server
         if not str(base_url).startswith(("http://", "https://")):
             raise ConfigError(f"llm.base_url '{base_url}' is not an http(s) URL")
         try:
@@ -135,7 +157,17 @@ class OpenAICompatibleLLM(LLM):
             value = getattr(self, key)
             if value is not None:
                 request[key] = value
-        return {**request, "extra_body": self.extra, "extra_headers": self._no_auth}
+        return {**request, "extra_body": {**self.grammar_fields(), **self.extra}, "extra_headers": self._no_auth}
+
+    def grammar_fields(self) -> dict[str, Any]:
+        """The body fields that ask `server` for the action grammar (none when grammar is none)."""
+        if self.grammar == "none" or self.server == "none":
+            return {}
+        return {
+            "vllm": {"structured_outputs": {"regex": ACTIONS_REGEX}},
+            "sglang": {"regex": ACTIONS_REGEX},
+            "llamacpp": {"grammar": ACTIONS_GBNF},
+        }[self.server]
 
     def complete(self, prompt: Prompt) -> str:
         return self.complete_messages(prompt.messages)
@@ -194,8 +226,10 @@ class OpenAICompatibleLLM(LLM):
         return text
 
     def identity(self) -> str:
+        constraint = {"grammar": self.grammar, "server": self.server} if self.grammar_fields() else {}
         return json.dumps(
             {
+                **constraint,
                 "llm": "openai_compatible",
                 "base_url": self.base_url,
                 "model": self.model,

@@ -4,6 +4,9 @@ from dataclasses import dataclass, field
 from typing import Any, Dict, Optional
 
 from xicm.core.schema import above, at_least, one_of, rule
+from xicm.plugins.llms.action_grammar import GRAMMARS
+
+SERVERS = ("vllm", "sglang", "llamacpp", "none")  # whose structured-output field carries the grammar
 
 
 @dataclass
@@ -20,3 +23,5 @@ class OpenAICompatibleOptions:
     extra: Optional[Dict[str, Any]] = None
     timeout_s: float = field(default=120.0, metadata=above(0))
     retries: int = field(default=3, metadata=at_least(0))
+    grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))
+    server: str = field(default="vllm", metadata=one_of(*SERVERS))

@@ -66,6 +66,18 @@ draft_tokens (16)
     and keeps those the model itself would pick (`xicm.plugins.llms.fast_decode`); 0 decodes
     one token per pass. Used only for greedy decoding without logits processors; sampling
     goes through ``generate`` (with the prefix cache and the action-list stop).
+grammar ("actions")
+    ``actions``: the reply is constrained to the action grammar (`xicm.plugins.llms.action_grammar`:
+    a list of 1-26 in-range 7-integer groups, nothing else) with llguidance. The greedy fast path
+    appends forced tokens without asking the model and picks the argmax over the allowed tokens
+    (`xicm.plugins.llms.grammar_decode.grammar_greedy_decode`); ``generate`` (sampling,
+    ``fast: false``, batches) gets a logits processor that masks the disallowed tokens. The
+    reply is that of grammar-constrained ``generate``. ``none``: free decoding (the paper presets).
+    The tokenizer is converted for llguidance once per process, on the first reply.
+reduced_output_layer (True)
+    With the grammar on the greedy fast path, evaluate the output layer only on the tokens the
+    grammar allows at each position instead of the whole vocabulary (Gemma 3: 262,144 rows, most
+    of the 270M model's compute per token); replies are the same.
 Greedy replies of the fast path are the plain ones (tests and benchmarks/bench_llm_stage.py
 compare them on the embedded model). `complete_batch(prompts)` answers several prompts in one
 left-padded ``generate`` call (`xicm.plugins.llms.batch_generate`).
@@ -89,6 +101,7 @@ from xicm.core.interfaces import LLM
 from xicm.core.schema import above, at_least, one_of, rule
 from xicm.core.types import Prompt
 from xicm.plugins.llms import model_files, stopping
+from xicm.plugins.llms.action_grammar import GRAMMARS, ActionMatcherFactory, check_grammar
 from xicm.plugins.llms.options import to_plain
 from xicm.plugins.llms.prefix_cache import PrefixCache
 from xicm.plugins.llms.rendering import fold_system, render_plain, render_raw
@@ -122,6 +135,8 @@ class TransformersLocalOptions:
     stop_at_action_list: bool = True
     prefix_cache: bool = True
     draft_tokens: int = field(default=16, metadata=at_least(0))
+    grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))
+    reduced_output_layer: bool = True
 
 
 class TransformersLocalLLM(LLM):
@@ -149,6 +164,8 @@ class TransformersLocalLLM(LLM):
         stop_at_action_list: bool = True,
         prefix_cache: bool = True,
         draft_tokens: int = 16,
+        grammar: str = "actions",
+        reduced_output_layer: bool = True,
     ):
         if chat_template not in CHAT_TEMPLATE_MODES and not ("{{" in chat_template or "{%" in chat_template):
             raise ConfigError(
@@ -180,6 +197,9 @@ class TransformersLocalLLM(LLM):
         self.stop_at_action_list = self.fast and bool(stop_at_action_list)
         self.use_prefix_cache = self.fast and bool(prefix_cache)
         self.draft_tokens = int(draft_tokens) if self.fast else 0
+        self.grammar = check_grammar(str(grammar))
+        self.reduced_output_layer = bool(reduced_output_layer)
+        self._matchers: ActionMatcherFactory | None = None  # built on first use (converts the tokenizer)
         self.prefix_cache = PrefixCache()
         self.last_call: dict[str, float] = {}  # fast path: reused_tokens, prefill_s, decode_s, new_tokens
         self.source, self.gguf_file, self.model_label = self._resolve(self.model_option)
@@ -389,6 +409,7 @@ class TransformersLocalLLM(LLM):
 
             criteria = stopping.batch_stopping_criteria(self._decode, len(ids), [], True)
             extra["stopping_criteria"] = StoppingCriteriaList([criteria])
+        extra.update(self._grammar_kwargs(1))
         with torch.inference_mode():
             out = self._model.generate(
                 input_ids=input_ids,
@@ -409,7 +430,18 @@ class TransformersLocalLLM(LLM):
         cache = store.prepare(self._model, ids)
         self.last_call = {"reused_tokens": store.reused_tokens, "prefill_s": time.perf_counter() - t0}
         kwargs = self.generation_kwargs()
-        if plain_greedy(self._model.generation_config, kwargs):
+        greedy = plain_greedy(self._model.generation_config, kwargs)
+        if greedy and self.grammar != "none":
+            from xicm.plugins.llms.grammar_decode import grammar_greedy_decode, reduced_head_supported
+
+            t0 = time.perf_counter()
+            new_ids = grammar_greedy_decode(
+                self._model, cache, ids, self.max_new_tokens, self.matchers().new(), self._vocab_size(),
+                self.draft_tokens, self.reduced_output_layer and reduced_head_supported(self._model),
+            )
+            self.last_call.update(decode_s=time.perf_counter() - t0, new_tokens=len(new_ids))
+            return new_ids
+        if greedy:
             eos = self._model.generation_config.eos_token_id
             eos = [] if eos is None else [eos] if isinstance(eos, int) else list(eos)
             t0 = time.perf_counter()
@@ -430,8 +462,32 @@ class TransformersLocalLLM(LLM):
             out = self._model.generate(
                 input_ids=input_ids, attention_mask=torch.ones_like(input_ids), past_key_values=cache,
                 pad_token_id=self._pad_id(), stopping_criteria=StoppingCriteriaList([criteria]), **kwargs,
+                **self._grammar_kwargs(1),
             )
         return out[0, len(ids):].tolist()
+
+    def _vocab_size(self) -> int:
+        return int(self._model.get_output_embeddings().weight.shape[0])
+
+    def _eos_ids(self) -> list[int]:
+        eos = self._model.generation_config.eos_token_id
+        return [] if eos is None else [eos] if isinstance(eos, int) else list(eos)
+
+    def matchers(self) -> ActionMatcherFactory:
+        """The llguidance matcher factory of the action grammar for this model's tokenizer."""
+        self.load()
+        if self._matchers is None:
+            self._matchers = ActionMatcherFactory(self._tokenizer, self._vocab_size(), self._eos_ids())
+        return self._matchers
+
+    def _grammar_kwargs(self, batch_size: int) -> dict[str, Any]:
+        """generate() arguments that enforce the grammar (none when it is off)."""
+        if self.grammar == "none":
+            return {}
+        from transformers import LogitsProcessorList
+        from xicm.plugins.llms.grammar_decode import action_grammar_processor
+
+        return {"logits_processor": LogitsProcessorList([action_grammar_processor(self.matchers(), batch_size)])}
 
     def _decode(self, new_ids: list[int]) -> str:
         return self._tokenizer.decode(new_ids, skip_special_tokens=True)
@@ -467,7 +523,7 @@ class TransformersLocalLLM(LLM):
             torch.manual_seed(self.seed)
         rows = generate_batch(
             self._model, id_lists, self._pad_id(), self._decode, self.stop_strings,
-            self.stop_at_action_list, self.generation_kwargs(),
+            self.stop_at_action_list, {**self.generation_kwargs(), **self._grammar_kwargs(len(id_lists))},
         )
         return [self.reply_text(self._decode(row)) for row in rows]
 
@@ -494,6 +550,8 @@ class TransformersLocalLLM(LLM):
             "prompt_overflow": self.prompt_overflow,
             "do_sample": self.do_sample,
         }
+        if self.grammar != "none":
+            settings["grammar"] = self.grammar
         if self.stop_at_action_list:  # the only speed option that can change a reply (it cuts it)
             settings["stop_at_action_list"] = True
         if self.do_sample:

