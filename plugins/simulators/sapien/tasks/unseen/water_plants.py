@@ -15,8 +15,8 @@ Task description:
 
 Randomisations:
     - which side (left or right) the can stands on: centre x in [0.08, 0.16] m, |y| in
-      [0.16, 0.22] m, its spout pointing towards the middle of the table with yaw noise in
-      [-20, 20] degrees;
+      [0.16, 0.22] m, yaw in [-180, 180] degrees (RLBench's default; was its spout towards the
+      middle of the table +- 20 degrees);
     - pot centre x in [0.26, 0.34] m, y in [-0.06, 0.06] m.
 
 Success conditions:
@@ -150,7 +150,7 @@ class WaterPlants(Task):
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         side = 1.0 if rng.random() < 0.5 else -1.0
         cx, cy = rng.uniform(0.08, 0.16), side * rng.uniform(0.16, 0.22)
-        yaw = -side * np.pi / 2 + np.deg2rad(rng.uniform(-20.0, 20.0))  # spout towards the middle
+        yaw = -side * np.pi / 2 + np.deg2rad(rng.uniform(-180.0, 180.0))  # the spout any way (was towards the middle +-20)
         self.can_start = yaw_pose(cx, cy, TABLE_TOP_Z + BODY_HALF[2], yaw)
         self.can.set_pose(self.can_start)
         self.pot.set_pose(sapien.Pose([rng.uniform(0.26, 0.34), rng.uniform(-0.06, 0.06), TABLE_TOP_Z]))
