@@ -11,7 +11,8 @@ Randomisations:
       sampled) and which side (left or right) each dustpan lies on;
     - dirt heap centre x in [0.16, 0.22] m, y in [-0.03, 0.03] m, pieces spread +- 2.5 cm;
     - dustpan centres x within 2 cm of the heap's, |y| in [0.23, 0.26] m;
-    - broom centre x in [-0.02, 0.03] m, y in [-0.06, 0.06] m, yaw in [-20, 20] degrees.
+    - broom centre x in [-0.02, 0.03] m, y in [-0.06, 0.06] m, yaw in [-180, 180] degrees
+      (RLBench's default; was [-20, 20]).
 
 Success conditions:
     All five pieces of dirt lie on the named dustpan's floor (between its walls).
@@ -104,7 +105,7 @@ class SweepToDustpanOfSize(Task):
         for piece, p in zip(self.dirt, placed):
             piece.set_pose(yaw_pose(p[0], p[1], TABLE_TOP_Z + DIRT_HALF, rng.uniform(-np.pi / 4, np.pi / 4)))
         bx, by = rng.uniform(-0.02, 0.03), rng.uniform(-0.06, 0.06)
-        self.broom.set_pose(yaw_pose(bx, by, TABLE_TOP_Z + 0.0005, np.deg2rad(rng.uniform(-20.0, 20.0))))
+        self.broom.set_pose(yaw_pose(bx, by, TABLE_TOP_Z + 0.0005, np.deg2rad(rng.uniform(-180.0, 180.0))))
 
     def dirt_in(self, index: int) -> bool:
         pan = self.pans[index].pose.inv()

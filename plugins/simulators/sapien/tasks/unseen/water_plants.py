@@ -2,23 +2,29 @@
 
 Task description:
     A green watering can (a closed box body with a handle across its top and a square spout
-    rising from the bottom of its front) stands on the table beside a potted plant. Six small
-    blue beads of "water" lie inside the can. The robot takes the can by its handle, carries it
-    next to the plant with the spout's tip over the pot and tips it forward until the water runs
-    out of the spout into the pot.
+    rising from the bottom of its front) stands on the table beside a potted plant. The robot
+    takes the can by its handle, carries it next to the plant with the spout's tip over the pot
+    and tips it forward to pour.
+
+    Water follows RLBench: the first time the spout's tip reaches the pour point (a cylinder
+    over the pot: within 5 cm of its axis, from its rim to 12 cm above it), five 5 mm drops
+    (0.1 g) are spawned at the tip, each offset by normal noise of sigma 0.5 mm, and fall. The
+    drops pass through the can (their own collision group), as RLBench's spawn inside the
+    spout's head does not hold them back. Upstream's pour-point and pot sensors are sized in its
+    binary scene file; these sizes are ours.
 
 Randomisations:
     - which side (left or right) the can stands on: centre x in [0.08, 0.16] m, |y| in
-      [0.16, 0.22] m, its spout pointing towards the middle of the table with yaw noise in
-      [-20, 20] degrees;
+      [0.16, 0.22] m, yaw in [-180, 180] degrees (RLBench's default; was its spout towards the
+      middle of the table +- 20 degrees);
     - pot centre x in [0.26, 0.34] m, y in [-0.06, 0.06] m.
 
 Success conditions:
-    At least one bead of water lies inside the pot (inside its wall, below its rim), while the
-    robot still holds the can and the spout's tip is over the pot (within the pot's radius
-    plus 3 cm, horizontally). One bead is enough (the upstream condition is "water reaches the
-    pot"). Holding and the spout condition make it watering: dropping the can onto or beside the
-    pot (what copying a pick-and-place demo does) spills beads into the pot but is not a success.
+    As RLBench after the pour point is reached: all five drops lie inside the pot (inside its
+    wall, below its rim). Holding the can or tipping it is not required (upstream neither):
+    a can held upright, or dropped, with its tip passing the pour point waters the plant.
+    Deviation: before the pour point is reached RLBench counts the can itself in the pot's
+    sensor as a success (its sensor's size is not readable); ours is not a success then.
 """
 
 from __future__ import annotations
@@ -38,12 +44,15 @@ SPOUT_LEN = 0.12
 SPOUT_IN = 0.024  # inner size of the square spout channel
 HANDLE_HALF = (0.007, 0.03, 0.007)
 HANDLE_Z = BODY_HALF[2] + 0.035  # handle bar centre above the body centre
-BEAD_R = 0.0075
-N_BEADS = 6
+DROP_HALF = 0.0025  # RLBench's drops: 5 mm cubes of 0.1 g
+DROP_DENSITY = 1e-4 / (2 * DROP_HALF) ** 3
+N_DROPS = 5
+DROP_NOISE = 0.0005  # sigma of each drop's offset from the spout's tip
+WATER_GROUP = 1 << 21  # shared collision-group bit: the drops pass through the can
 POT_R, POT_H = 0.07, 0.09  # inner radius and height of the pot
+POUR_R, POUR_TOP = 0.05, 0.12  # pour point: radius about the pot's axis, height above its rim
 TILT = 70.0  # degrees the can is tipped forward to pour
 STEP = 5.0
-MIN_BEADS = 1
 
 
 def friendly(yaw_deg: float) -> float:
@@ -77,6 +86,7 @@ class WaterPlants(Task):
     def load(self) -> None:
         scene = self.world.scene
         b = scene.create_actor_builder()
+        b.collision_groups = [1, 1, WATER_GROUP, 0]
         green = look((0.2, 0.6, 0.3), roughness=0.5)
         a, w, h = BODY_HALF
         t = WALL
@@ -130,47 +140,68 @@ class WaterPlants(Task):
             b.add_sphere_visual(pose=sapien.Pose([dx, dy, dz]), radius=0.03, material=leaf)
         self.pot = self.objects.actor(b, "plant", kind="static")
 
-        self.beads = []
-        for _ in range(N_BEADS):
+        self.drops = []
+        for _ in range(N_DROPS):
             b = scene.create_actor_builder()
-            b.add_sphere_collision(radius=BEAD_R, material=physical(0.1), density=1000.0)
-            b.add_sphere_visual(radius=BEAD_R, material=look((0.2, 0.45, 0.95), roughness=0.2))
-            self.beads.append(self.objects.actor(b, "water"))
+            b.collision_groups = [1, 1, WATER_GROUP, 0]
+            add_box(b, [DROP_HALF] * 3, color=(0.1, 0.1, 0.9), density=DROP_DENSITY)
+            self.drops.append(self.objects.actor(b, "water"))
 
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         side = 1.0 if rng.random() < 0.5 else -1.0
         cx, cy = rng.uniform(0.08, 0.16), side * rng.uniform(0.16, 0.22)
-        yaw = -side * np.pi / 2 + np.deg2rad(rng.uniform(-20.0, 20.0))  # spout towards the middle
+        yaw = -side * np.pi / 2 + np.deg2rad(rng.uniform(-180.0, 180.0))  # the spout any way (was towards the middle +-20)
         self.can_start = yaw_pose(cx, cy, TABLE_TOP_Z + BODY_HALF[2], yaw)
         self.can.set_pose(self.can_start)
         self.pot.set_pose(sapien.Pose([rng.uniform(0.26, 0.34), rng.uniform(-0.06, 0.06), TABLE_TOP_Z]))
-        spots = [(-0.025, -0.02), (-0.025, 0.0), (-0.025, 0.02), (0.0, -0.02), (0.0, 0.0), (0.0, 0.02)]
-        for bead, (bx, by) in zip(self.beads, spots):
-            local = [bx, by, -BODY_HALF[2] + WALL + BEAD_R + 0.001]
-            bead.set_pose(sapien.Pose(self.world_point(self.can_start, local)))
-        for ent in (self.can, *self.beads):
-            body = ent.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
-            body.set_linear_velocity([0, 0, 0])
-            body.set_angular_velocity([0, 0, 0])
+        for k, drop in enumerate(self.drops):  # parked, still, off the table until poured
+            self.body(drop).kinematic = True
+            drop.set_pose(sapien.Pose([-2.0, 0.1 * k, 0.0]))
+        body = self.body(self.can)
+        body.set_linear_velocity([0, 0, 0])
+        body.set_angular_velocity([0, 0, 0])
         self.variation = 0
         self.episode_instruction = self.instruction
+        self.poured = False
+        # drawn last, so the scene's draws are those of the earlier versions
+        self.drop_offsets = rng.normal(0.0, DROP_NOISE, size=(N_DROPS, 3))
 
-    def beads_in_pot(self) -> int:
+    @staticmethod
+    def body(entity: sapien.Entity) -> sapien.physx.PhysxRigidDynamicComponent:
+        return entity.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
+
+    def spout_tip(self) -> np.ndarray:
+        return np.asarray((self.can.pose * sapien.Pose(self.nozzle)).p)
+
+    def at_pour_point(self) -> bool:
+        rel = self.spout_tip() - np.asarray(self.pot.pose.p)
+        return bool(np.linalg.norm(rel[:2]) < POUR_R and POT_H < rel[2] < POT_H + POUR_TOP)
+
+    def on_frame(self) -> None:
+        """RLBench's step(): the first time the tip reaches the pour point, spawn the drops there."""
+        if self.poured or not self.at_pour_point():
+            return
+        tip = self.spout_tip()
+        for drop, offset in zip(self.drops, self.drop_offsets):
+            body = self.body(drop)
+            body.kinematic = False
+            drop.set_pose(sapien.Pose(tip + offset))
+            body.set_linear_velocity([0, 0, 0])
+            body.set_angular_velocity([0, 0, 0])
+        self.poured = True
+
+    def drops_in_pot(self) -> int:
+        if not self.poured:
+            return 0
         pot = np.asarray(self.pot.pose.p)
         count = 0
-        for bead in self.beads:
-            p = np.asarray(bead.pose.p) - pot
+        for drop in self.drops:
+            p = np.asarray(drop.pose.p) - pot
             count += bool(np.linalg.norm(p[:2]) < POT_R and 0.0 < p[2] < POT_H)
         return count
 
-    def spout_over_pot(self) -> bool:
-        tip = np.asarray((self.can.pose * sapien.Pose(self.nozzle)).p)
-        return bool(np.linalg.norm(tip[:2] - np.asarray(self.pot.pose.p)[:2]) < POT_R + 0.03)
-
     def evaluate(self) -> bool:
-        if self.beads_in_pot() < MIN_BEADS or not self.spout_over_pot():
-            return False
-        return self.can.per_scene_id in self.grasped()
+        return self.drops_in_pot() == N_DROPS
 
     def demonstration(self):
         can = self.can.pose
@@ -192,11 +223,9 @@ class WaterPlants(Task):
             q = hand_quat(pour_yaw, roll)
             nozzle = np.asarray((sapien.Pose(q=q) * in_hand * sapien.Pose(self.nozzle)).p)
             if best is None or nozzle[2] < best[1][2]:
-                best = (q, nozzle, np.sign(roll))
-        q_pour, nozzle, roll_sign = best
+                best = (q, nozzle)
+        q_pour, nozzle = best
         tcp = snap_to_grid(pot + [0, 0, POT_H + 0.04] - nozzle)  # spout tip 4 cm above the rim
         q_up = hand_quat(pour_yaw, 0.0)
         yield self.key(snap_to_grid(tcp + [0, 0, 0.05]), q_up, False)
         yield self.key(tcp, q_pour, False)
-        roll = TILT + 20.0 if roll_sign > 0 else -TILT - 20.0
-        yield self.key(tcp, hand_quat(pour_yaw, roll), False)  # tip further: the last beads run out
