@@ -358,7 +358,7 @@ def test_transformers_serve_completes_greedily_the_same_twice(served_model, caps
     # The server is pinned to the folder: the request's model must be that path.
     completion = OpenAICompatibleLLM(
         model=str(folder), base_url=base, mode="completion", completion_format="raw",
-        temperature=0.0, top_p=None, max_tokens=24, timeout_s=300, retries=1,
+        temperature=0.0, top_p=None, max_tokens=24, timeout_s=300, retries=1, server="none",
     )
     start = time.monotonic()
     first = completion.complete(make_prompt(SERVED_MESSAGES))
@@ -373,9 +373,22 @@ def test_transformers_serve_completes_greedily_the_same_twice(served_model, caps
 @pytest.mark.slow
 def test_transformers_serve_refuses_chat_for_a_model_without_chat_template(served_model):
     folder, base = served_model
-    chat = OpenAICompatibleLLM(model=str(folder), base_url=base, mode="chat", max_tokens=8, timeout_s=120, retries=0)
+    chat = OpenAICompatibleLLM(model=str(folder), base_url=base, mode="chat", max_tokens=8, timeout_s=120, retries=0,
+                               server="none")
     with pytest.raises(LLMError, match=r"/v1/chat/completions failed after 1 attempt\(s\): HTTP 500"):
         chat.complete(make_prompt(SERVED_MESSAGES))
+
+
+@pytest.mark.slow
+def test_transformers_serve_refusing_the_grammar_field_names_the_option_to_change(served_model):
+    """`transformers serve` has no structured outputs and refuses vLLM's field (HTTP 422): the
+    episode's error says to set llm.server, instead of only the server's complaint."""
+    folder, base = served_model
+    llm = OpenAICompatibleLLM(model=str(folder), base_url=base, mode="completion", completion_format="raw",
+                              max_tokens=4, timeout_s=120, retries=0)  # grammar actions, server vllm: the defaults
+    with pytest.raises(LLMError, match=r"HTTP 422 .*structured_outputs.*; the server did not take llm.server=vllm's "
+                                       r"structured-output field: set llm.server to its kind \(vllm, sglang, llamacpp\) or none"):
+        llm.complete(make_prompt(SERVED_MESSAGES))
 
 
 def test_hydra_style_options_are_plain_json(fake):

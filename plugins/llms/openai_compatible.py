@@ -169,6 +169,15 @@ class OpenAICompatibleLLM(LLM):
             "llamacpp": {"grammar": ACTIONS_GBNF},
         }[self.server]
 
+    def _grammar_hint(self, exc) -> str:
+        """When a server refuses the request over its structured-output field (e.g. `transformers
+        serve` answers 422 to vLLM's field), say which option to change."""
+        fields = self.grammar_fields()
+        if exc.status_code in (400, 422) and any(name in exc.response.text for name in fields):
+            return (f"; the server did not take llm.server={self.server}'s structured-output field: set llm.server "
+                    f"to its kind ({', '.join(s for s in SERVERS if s != 'none')}) or none (llm.grammar is then not enforced)")
+        return ""
+
     def complete(self, prompt: Prompt) -> str:
         return self.complete_messages(prompt.messages)
 
@@ -205,7 +214,7 @@ class OpenAICompatibleLLM(LLM):
         except openai.APIConnectionError as exc:
             reason = f"cannot connect ({exc.__cause__ or exc})"
         except openai.APIStatusError as exc:
-            reason = f"HTTP {exc.status_code}{_error_detail(exc.response.text)}"
+            reason = f"HTTP {exc.status_code}{_error_detail(exc.response.text)}{self._grammar_hint(exc)}"
         except (json.JSONDecodeError, openai.APIResponseValidationError) as exc:
             reason = f"reply is not JSON ({' '.join(str(exc).split())[:120]})"
         else:
