@@ -84,17 +84,7 @@ def test_llguidance_accepts_exactly_the_regex_language(kind):
 
 # ---------------------------------------------------------------- tiny random Gemma 3 model
 torch = pytest.importorskip("torch")
-
-
-@pytest.fixture(scope="module")
-def tiny_dir(tmp_path_factory) -> Path:
-    from test_llm_transformers_local import build_model, build_tokenizer
-    from xicm.plugins.llms import model_files as mf
-
-    tokenizer = build_tokenizer()
-    out = tmp_path_factory.mktemp("grammar") / "tiny-gemma3"
-    mf.write_model_folder(build_model(len(tokenizer), max_positions=1024), tokenizer, out, {"source": "test"})
-    return out
+from test_llm_fast_path import tiny_dir  # noqa: E402,F401 - the same tiny random Gemma 3 folder (a fixture)
 
 
 def tiny(tiny_dir, **options):
