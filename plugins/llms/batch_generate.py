@@ -36,6 +36,7 @@ def generate_batch(
     stop_strings: Sequence[str],
     action_list: bool,
     generation_kwargs: dict[str, Any],
+    repeat: bool = False,
 ) -> list[list[int]]:
     """New token ids per prompt (padding removed), each row stopped once its reply ends."""
     import torch
@@ -46,7 +47,7 @@ def generate_batch(
     device = next(model.parameters()).device
     input_ids, mask = input_ids.to(device), mask.to(device)
     width = input_ids.shape[1]
-    criteria = batch_stopping_criteria(decode, width, stop_strings, action_list)
+    criteria = batch_stopping_criteria(decode, width, stop_strings, action_list, repeat)
     from transformers import StoppingCriteriaList
 
     with torch.inference_mode():

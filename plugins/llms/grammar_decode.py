@@ -17,7 +17,7 @@ per batch row), for ``generate``: sampling, ``fast: false`` and `complete_batch`
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from xicm.plugins.llms.action_grammar import allowed_tokens
@@ -77,9 +77,11 @@ def grammar_greedy_decode(
     vocab_size: int,
     draft_tokens: int = 16,
     reduced: bool = True,
+    ends: Callable[[list[int]], bool] | None = None,
 ) -> list[int]:
     """New token ids after prompt_ids: greedy decoding restricted to what the matcher allows,
-    until the grammar is complete (or max_new_tokens). cache holds prompt_ids[:-1]."""
+    until the grammar is complete, max_new_tokens, or ends(tokens so far) is true (checked before
+    each step; the caller cuts the text). cache holds prompt_ids[:-1]."""
     import torch
 
     device = next(model.parameters()).device
@@ -88,7 +90,7 @@ def grammar_greedy_decode(
     pending = [int(prompt_ids[-1])]  # tokens not yet in the cache
     guess = max(0, int(draft_tokens))
     with torch.inference_mode():
-        while len(out) < max_new_tokens and not matcher.is_stopped():
+        while len(out) < max_new_tokens and not matcher.is_stopped() and not (ends is not None and ends(out)):
             forced = list(matcher.compute_ff_tokens())[: max_new_tokens - len(out)]
             if forced:
                 if not matcher.consume_tokens(forced):

@@ -57,6 +57,13 @@ stop_at_action_list (True)
     the first nested ``[[...], ...]`` holding a 7-integer group); the text is cut there. The
     text up to there is plain generate's; only what the model would have written after it on
     the same line is not generated.
+stop_at_repeated_action (None: on when ``grammar`` is on, so off in the paper presets)
+    End the reply once an action equals the action before it (`xicm.plugins.llms.stopping.repeat_cut`):
+    the reply is cut before the repeat and its list closed. A greedy small model that has
+    written its plan tends to repeat its last action up to max_new_tokens; a repeated action
+    moves nothing, so what the reply executes changes only if the model would have gone on to a
+    different action after repeating one (benchmarks/bench_llm_stage.py counts such replies).
+    Changes replies (it is part of identity()).
 prefix_cache (True)
     Keep the key/value states of the previous prompt and reuse those of the longest common
     token prefix (system message and demos), so only the new suffix is run through the model
@@ -133,6 +140,7 @@ class TransformersLocalOptions:
     trust_remote_code: bool = False
     fast: bool = True
     stop_at_action_list: bool = True
+    stop_at_repeated_action: Optional[bool] = None
     prefix_cache: bool = True
     draft_tokens: int = field(default=16, metadata=at_least(0))
     grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))
@@ -162,6 +170,7 @@ class TransformersLocalLLM(LLM):
         trust_remote_code: bool = False,
         fast: bool = True,
         stop_at_action_list: bool = True,
+        stop_at_repeated_action: bool | None = None,
         prefix_cache: bool = True,
         draft_tokens: int = 16,
         grammar: str = "actions",
@@ -195,9 +204,11 @@ class TransformersLocalLLM(LLM):
         self.trust_remote_code = bool(trust_remote_code)
         self.fast = bool(fast)
         self.stop_at_action_list = self.fast and bool(stop_at_action_list)
+        self.grammar = check_grammar(str(grammar))
+        repeat = self.grammar != "none" if stop_at_repeated_action is None else bool(stop_at_repeated_action)
+        self.stop_at_repeat = self.fast and repeat
         self.use_prefix_cache = self.fast and bool(prefix_cache)
         self.draft_tokens = int(draft_tokens) if self.fast else 0
-        self.grammar = check_grammar(str(grammar))
         self.reduced_output_layer = bool(reduced_output_layer)
         self._matchers: ActionMatcherFactory | None = None  # built on first use (converts the tokenizer)
         self.prefix_cache = PrefixCache()
@@ -404,10 +415,12 @@ class TransformersLocalLLM(LLM):
         extra: dict[str, Any] = {}
         if self.stop_strings:
             extra = {"stop_strings": self.stop_strings, "tokenizer": self._tokenizer}
-        if self.stop_at_action_list:  # the fast path on a model whose cache it cannot reuse
+        if self.stop_at_action_list or self.stop_at_repeat:  # the fast path on a model whose cache it cannot reuse
             from transformers import StoppingCriteriaList
 
-            criteria = stopping.batch_stopping_criteria(self._decode, len(ids), [], True)
+            criteria = stopping.batch_stopping_criteria(
+                self._decode, len(ids), [], self.stop_at_action_list, self.stop_at_repeat
+            )
             extra["stopping_criteria"] = StoppingCriteriaList([criteria])
         extra.update(self._grammar_kwargs(1))
         with torch.inference_mode():
@@ -438,6 +451,7 @@ class TransformersLocalLLM(LLM):
             new_ids = grammar_greedy_decode(
                 self._model, cache, ids, self.max_new_tokens, self.matchers().new(), self._vocab_size(),
                 self.draft_tokens, self.reduced_output_layer and reduced_head_supported(self._model),
+                ends=self._repeat_ends if self.stop_at_repeat else None,
             )
             self.last_call.update(decode_s=time.perf_counter() - t0, new_tokens=len(new_ids))
             return new_ids
@@ -454,7 +468,7 @@ class TransformersLocalLLM(LLM):
 
         input_ids = torch.tensor([ids], dtype=torch.long, device=self.device)
         criteria = stopping.batch_stopping_criteria(
-            self._decode, len(ids), self.stop_strings, self.stop_at_action_list
+            self._decode, len(ids), self.stop_strings, self.stop_at_action_list, self.stop_at_repeat
         )
         if self.do_sample:
             torch.manual_seed(self.seed)
@@ -494,8 +508,12 @@ class TransformersLocalLLM(LLM):
 
     def _tokens_until_end(self, new_ids: list[int], checked: int) -> int | None:
         return stopping.tokens_until_end(
-            self._decode, new_ids, checked, self.stop_strings, self.stop_at_action_list
+            self._decode, new_ids, checked, self.stop_strings, self.stop_at_action_list, self.stop_at_repeat
         )
+
+    def _repeat_ends(self, new_ids: list[int]) -> bool:
+        """Whether the grammar loop's reply so far has repeated an action (it is cut in reply_text)."""
+        return stopping.repeated_action_end(self._decode(new_ids)) is not None
 
     def _pad_id(self) -> int:
         pad = self._tokenizer.pad_token_id
@@ -524,13 +542,14 @@ class TransformersLocalLLM(LLM):
         rows = generate_batch(
             self._model, id_lists, self._pad_id(), self._decode, self.stop_strings,
             self.stop_at_action_list, {**self.generation_kwargs(), **self._grammar_kwargs(len(id_lists))},
+            repeat=self.stop_at_repeat,
         )
         return [self.reply_text(self._decode(row)) for row in rows]
 
     def reply_text(self, text: str) -> str:
-        """The decoded new text cut at the first stop string (and after the action list when
-        stop_at_action_list is on)."""
-        return stopping.final_text(text, self.stop_strings, self.stop_at_action_list)
+        """The decoded new text cut at the first stop string (and before a repeated action and
+        after the action list when those stops are on)."""
+        return stopping.final_text(text, self.stop_strings, self.stop_at_action_list, self.stop_at_repeat)
 
     def cut_at_stop(self, text: str) -> str:
         """Text up to the first stop string (a reply that starts with one keeps its first line)."""
@@ -552,8 +571,10 @@ class TransformersLocalLLM(LLM):
         }
         if self.grammar != "none":
             settings["grammar"] = self.grammar
-        if self.stop_at_action_list:  # the only speed option that can change a reply (it cuts it)
+        if self.stop_at_action_list:  # speed options that can change a reply (they cut it)
             settings["stop_at_action_list"] = True
+        if self.stop_at_repeat:
+            settings["stop_at_repeated_action"] = True
         if self.do_sample:
             settings.update(
                 temperature=self.temperature, top_p=self.top_p, repetition_penalty=self.repetition_penalty, seed=self.seed
