@@ -98,5 +98,8 @@ def allowed_tokens(matcher, vocab_size: int):
 
     mask = llg_numpy.allocate_token_bitmask(1, vocab_size)
     llg_numpy.fill_next_token_bitmask(matcher, mask, 0)
-    bits = np.unpackbits(mask[0].view(np.uint8), bitorder="little")[:vocab_size]
-    return np.flatnonzero(bits)
+    words = np.flatnonzero(mask[0])  # a few dozen of the 8,192 32-bit words: unpack only those
+    bits = np.unpackbits(mask[0][words].view(np.uint8).reshape(len(words), 4), axis=1, bitorder="little")
+    rows, cols = np.nonzero(bits)
+    ids = words[rows] * 32 + cols
+    return ids[ids < vocab_size].astype(np.int64)
