@@ -6,8 +6,9 @@ same real X-ICM prompts (prints figures; not a test). Modes:
                      greedy loop), llm.grammar=none
     grammar          the fast path under llm.grammar=actions, output layer over the whole vocabulary
     grammar_reduced  the same with the output layer evaluated only on the allowed tokens
-    grammar_repeat   grammar_reduced that also ends the reply before a repeated action (the default
-                     config: llm.stop_at_repeated_action follows the grammar)
+    grammar_repeat   grammar_reduced that also ends the reply before a repeated action
+                     (llm.stop_at_repeated_action: true, opt-in)
+    grammar_draft64  grammar_reduced checking up to 64 guessed tokens per pass (llm.draft_tokens)
 
 For each it reports LLM seconds per call and per episode, the parse_error rate (the project's
 parser, `xicm.core.parsing.parse_actions`) and whether the parsed actions agree with the first
@@ -93,6 +94,7 @@ MODES = {
     "grammar": {"grammar": "actions", "reduced_output_layer": False, "stop_at_repeated_action": False},
     "grammar_reduced": {"grammar": "actions", "reduced_output_layer": True, "stop_at_repeated_action": False},
     "grammar_repeat": {"grammar": "actions", "reduced_output_layer": True, "stop_at_repeated_action": True},
+    "grammar_draft64": {"grammar": "actions", "reduced_output_layer": True, "stop_at_repeated_action": False, "draft_tokens": 64},
 }
 
 
@@ -135,7 +137,7 @@ def main() -> None:
     episodes = build_episodes(args.pool, args.episodes, args.calls, args.k, args.seed, args.shared_demos)
     options = llm_options(args.max_new_tokens)
     options["torch_threads"] = args.torch_threads
-    llms = {m: TransformersLocalLLM(draft_tokens=args.draft_tokens, **{**options, **MODES[m]}) for m in modes}
+    llms = {m: TransformersLocalLLM(**{**options, "draft_tokens": args.draft_tokens, **MODES[m]}) for m in modes}
     matchers = None
     for llm in llms.values():
         llm.load()

@@ -136,19 +136,19 @@ def repeating_dir(tmp_path_factory) -> Path:
 
 
 def test_repeated_action_stop_cuts_the_whole_reply_before_its_first_repeat(tiny_dir, repeating_dir):
-    """With the grammar, the default stops at the first repeated action: its reply is the whole
-    grammar reply cut there, on the fast loop and in generate (batches); replies without a repeat
-    are unchanged."""
+    """stop_at_repeated_action: the reply is the whole grammar reply cut before its first repeated
+    action, on the fast loop and in generate (batches); replies without a repeat are unchanged."""
     from test_llm_fast_path import CALLS
     from xicm.core.types import Prompt, Query
     from xicm.plugins.llms.stopping import repeat_cut, repeated_action_end
 
     prompts = [Prompt(messages=m, demos=[], query=Query("t", "i", {}), workspace=WS) for m in CALLS]
-    assert not tiny(tiny_dir, grammar="none").stop_at_repeat  # the default follows the grammar
+    assert not tiny(tiny_dir).stop_at_repeat  # opt-in
     repeats = {}
     for name, folder in (("random", tiny_dir), ("repeating", repeating_dir)):
-        whole = tiny(folder, stop_at_repeated_action=False)
-        fast, one_token = tiny(folder), tiny(folder, draft_tokens=0, prefix_cache=False)
+        whole = tiny(folder)
+        fast = tiny(folder, stop_at_repeated_action=True)
+        one_token = tiny(folder, stop_at_repeated_action=True, draft_tokens=0, prefix_cache=False)
         assert fast.stop_at_repeat
         full = [whole.complete_messages(m) for m in CALLS]
         repeats[name] = sum(repeated_action_end(f) is not None for f in full)
@@ -158,7 +158,7 @@ def test_repeated_action_stop_cuts_the_whole_reply_before_its_first_repeat(tiny_
         assert fast.complete_batch(prompts) == expected, name  # generate with the stopping criteria
         assert all(re.fullmatch(ACTIONS_REGEX, e) for e in expected)
     assert repeats == {"random": 0, "repeating": len(CALLS)}
-    assert tiny(repeating_dir).complete_messages(CALLS[0]) == "[[0, 0, 0, 0, 0, 0, 0]]"
+    assert tiny(repeating_dir, stop_at_repeated_action=True).complete_messages(CALLS[0]) == "[[0, 0, 0, 0, 0, 0, 0]]"
 
 
 def test_grammar_in_batches_and_sampling(tiny_dir):
@@ -181,9 +181,9 @@ def test_grammar_option_identity_and_errors(tiny_dir):
     on = json.loads(TransformersLocalLLM(model=str(tiny_dir)).identity())
     off = json.loads(TransformersLocalLLM(model=str(tiny_dir), grammar="none").identity())
     same_reply = json.loads(TransformersLocalLLM(model=str(tiny_dir), reduced_output_layer=False).identity())
-    whole = json.loads(TransformersLocalLLM(model=str(tiny_dir), stop_at_repeated_action=False).identity())
+    cut = json.loads(TransformersLocalLLM(model=str(tiny_dir), stop_at_repeated_action=True).identity())
     assert on["grammar"] == "actions" and "grammar" not in off  # grammar none: today's identity
-    assert on["stop_at_repeated_action"] is True and "stop_at_repeated_action" not in off | whole
+    assert cut["stop_at_repeated_action"] is True and "stop_at_repeated_action" not in on | off
     assert same_reply == on  # the reduced output layer never changes a reply
     with pytest.raises(ConfigError, match=r"llm.grammar 'json' is unknown; allowed: none, actions"):
         TransformersLocalLLM(model=str(tiny_dir), grammar="json")
@@ -216,8 +216,8 @@ def test_embedded_gemma_reduced_output_layer_gives_the_full_vocabulary_replies(c
     options = {"max_new_tokens": 96, "chat_template": "raw", "max_prompt_tokens": 8192}
     reduced = TransformersLocalLLM(**options)
     full = TransformersLocalLLM(reduced_output_layer=False, **options)
-    whole = TransformersLocalLLM(stop_at_repeated_action=False, **options)
-    full._matchers = whole._matchers = reduced.matchers()  # one tokenizer conversion for all
+    cut = TransformersLocalLLM(stop_at_repeated_action=True, **options)
+    full._matchers = cut._matchers = reduced.matchers()  # one tokenizer conversion for all
     for calls in episodes:
         prompt = calls[0]
         ids = reduced.encode(prompt.messages)
@@ -226,6 +226,6 @@ def test_embedded_gemma_reduced_output_layer_gives_the_full_vocabulary_replies(c
         with capsys.disabled():
             print(f"\nreduced: {text!r}")
         assert a == b
-        assert text == repeat_cut(whole.complete(prompt))  # the stop at a repeated action only cuts
+        assert cut.complete(prompt) == repeat_cut(text)  # the stop at a repeated action only cuts
         assert re.fullmatch(ACTIONS_REGEX, text)
         assert isinstance(parse_actions(text, prompt.workspace), list)

@@ -72,6 +72,13 @@ def lookup_draft(context: np.ndarray, max_tokens: int, max_ngram: int = 8) -> li
     return []
 
 
+def next_guess(guess: int, accepted: int, drafted: int, cap: int) -> int:
+    """How many tokens to guess next: twice as many after a fully accepted guess (a reply that
+    repeats itself is then checked in a few long passes), a little more than were accepted after
+    a miss."""
+    return min(cap, max(2, 2 * guess)) if accepted == drafted else max(2, accepted + 2)
+
+
 def greedy_decode(
     model,
     cache,
@@ -119,6 +126,6 @@ def greedy_decode(
                 return out[:end]
             last = out[-1]
             context = np.concatenate([context, np.asarray(new, dtype=np.int64)])
-            if guess:  # guess further after a full hit, shorter after a miss
-                guess = min(int(draft_tokens), guess + 4) if accepted == len(draft) else max(2, accepted + 2)
+            if guess:
+                guess = next_guess(guess, accepted, len(draft), int(draft_tokens))
     return out

@@ -21,7 +21,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 from xicm.plugins.llms.action_grammar import allowed_tokens
-from xicm.plugins.llms.fast_decode import lookup_draft
+from xicm.plugins.llms.fast_decode import lookup_draft, next_guess
 from xicm.plugins.llms.prefix_cache import run_model
 
 
@@ -122,7 +122,7 @@ def grammar_greedy_decode(
             # the last chosen token is not in the cache yet (a fully accepted stopping draft has none)
             pending = [new[-1]] if chosen[accepted] is not None else []
             if guess:
-                guess = min(int(draft_tokens), guess + 4) if accepted == len(draft) else max(2, accepted + 2)
+                guess = next_guess(guess, accepted, len(draft), int(draft_tokens))
     return out
 
 

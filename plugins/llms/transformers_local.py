@@ -57,13 +57,16 @@ stop_at_action_list (True)
     the first nested ``[[...], ...]`` holding a 7-integer group); the text is cut there. The
     text up to there is plain generate's; only what the model would have written after it on
     the same line is not generated.
-stop_at_repeated_action (None: on when ``grammar`` is on, so off in the paper presets)
+stop_at_repeated_action (False)
     End the reply once an action equals the action before it (`xicm.plugins.llms.stopping.repeat_cut`):
     the reply is cut before the repeat and its list closed. A greedy small model that has
     written its plan tends to repeat its last action up to max_new_tokens; a repeated action
     moves nothing, so what the reply executes changes only if the model would have gone on to a
     different action after repeating one (benchmarks/bench_llm_stage.py counts such replies).
-    Changes replies (it is part of identity()).
+    Changes replies (it is part of identity()). Off by default: ``max_steps`` counts the repeats
+    a whole reply would have run, so a cut reply leaves more steps, and the policy asks again;
+    measured on AGNOSTOS episodes that fail, it made 13-25 LLM calls where whole replies made 3
+    (docs/DESIGN.md). Useful with ``policy.max_llm_calls`` set.
 prefix_cache (True)
     Keep the key/value states of the previous prompt and reuse those of the longest common
     token prefix (system message and demos), so only the new suffix is run through the model
@@ -140,7 +143,7 @@ class TransformersLocalOptions:
     trust_remote_code: bool = False
     fast: bool = True
     stop_at_action_list: bool = True
-    stop_at_repeated_action: Optional[bool] = None
+    stop_at_repeated_action: bool = False
     prefix_cache: bool = True
     draft_tokens: int = field(default=16, metadata=at_least(0))
     grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))
@@ -170,7 +173,7 @@ class TransformersLocalLLM(LLM):
         trust_remote_code: bool = False,
         fast: bool = True,
         stop_at_action_list: bool = True,
-        stop_at_repeated_action: bool | None = None,
+        stop_at_repeated_action: bool = False,
         prefix_cache: bool = True,
         draft_tokens: int = 16,
         grammar: str = "actions",
@@ -205,8 +208,7 @@ class TransformersLocalLLM(LLM):
         self.fast = bool(fast)
         self.stop_at_action_list = self.fast and bool(stop_at_action_list)
         self.grammar = check_grammar(str(grammar))
-        repeat = self.grammar != "none" if stop_at_repeated_action is None else bool(stop_at_repeated_action)
-        self.stop_at_repeat = self.fast and repeat
+        self.stop_at_repeat = self.fast and bool(stop_at_repeated_action)
         self.use_prefix_cache = self.fast and bool(prefix_cache)
         self.draft_tokens = int(draft_tokens) if self.fast else 0
         self.reduced_output_layer = bool(reduced_output_layer)
