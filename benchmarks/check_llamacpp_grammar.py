@@ -19,7 +19,8 @@ for /health, then reports:
   action list (the server enforces the grammar, it does not just accept the field).
 Prompts: `benchmarks/bench_llm_stage.py`'s `build_episodes` (one call per episode, k demos).
 Decoding: completion mode, raw rendering (as `transformers_local` prompts the base model),
-temperature 0, the plugin's max_tokens (256).
+temperature 0, max_tokens 256 (the plugin's default; --max-tokens), ``"cache_prompt": false`` (llama-server's own
+field, via ``llm.extra``) unless --cache-prompt, so each call's time includes its prefill.
 
 Not in CI: a fresh CI machine would first have to compile llama.cpp (minutes on 2 cores), far
 over the test suite's budget; tests/test_llm_openai_compatible.py checks the request fields
@@ -123,6 +124,10 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=1, help="llama-server -t")
     parser.add_argument("--ctx", type=int, default=8192, help="llama-server -c")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--max-tokens", type=int, default=256, help="llm.max_tokens (the plugin's default: 256)")
+    parser.add_argument("--cache-prompt", action="store_true",
+                        help="let the server reuse the previous call's KV cache (off: each call pays its prefill, "
+                             "so the grammar asked second is not timed without one)")
     parser.add_argument("--samples", type=int, default=2, help="sample replies shown per grammar")
     args = parser.parse_args()
     server_bin = args.server_bin or default_server_bin()
@@ -149,7 +154,8 @@ def main() -> None:
         served = models_list(url)
         print(f"/v1/models ids: {served}")
         options = dict(base_url=url + "/v1", model=served[0], mode="completion", completion_format="raw",
-                       server="llamacpp", temperature=0)
+                       server="llamacpp", temperature=0, max_tokens=args.max_tokens,
+                       extra={"cache_prompt": args.cache_prompt})
         llms = {g: OpenAICompatibleLLM(grammar=g, **options) for g in ("actions", "none")}
         llms["actions"].check_ready()
         print(f"check_ready() with llm.model={served[0]!r}: ok")
@@ -160,7 +166,8 @@ def main() -> None:
             print(f"check_ready() with llm.model='gemma-3-270m': ConfigError: {exc}")
 
         print(f"\npool {args.pool}, {len(prompts)} prompts, k={args.k}, -t {args.threads}, "
-              f"completion/raw, temperature 0, max_tokens {llms['none'].max_tokens}")
+              f"completion/raw, temperature 0, max_tokens {llms['none'].max_tokens}, "
+              f"cache_prompt {args.cache_prompt}")
         results = run_prompts(llms, prompts)
 
         print(f"\n{len(prompts)} prompts per grammar:")
