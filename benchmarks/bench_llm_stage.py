@@ -6,15 +6,18 @@ same real X-ICM prompts (prints figures; not a test). Modes:
                      greedy loop), llm.grammar=none
     grammar          the fast path under llm.grammar=actions, output layer over the whole vocabulary
     grammar_reduced  the same with the output layer evaluated only on the allowed tokens
-    grammar_repeat   grammar_reduced that also ends the reply before a repeated action
-                     (llm.stop_at_repeated_action: true, opt-in)
+    grammar_cut      grammar_reduced that ends the reply before a repeated action
+                     (llm.on_repeated_action: cut)
+    grammar_fill     grammar_reduced that stops decoding at a repeated action and writes the
+                     repeat on to the token budget (llm.on_repeated_action: fill)
     grammar_draft64  grammar_reduced checking up to 64 guessed tokens per pass (llm.draft_tokens)
 
 For each it reports LLM seconds per call and per episode, the parse_error rate (the project's
 parser, `xicm.core.parsing.parse_actions`) and whether the parsed actions agree with the first
-mode's; replies of the two grammar modes must be identical. For grammar_repeat it also counts the
-replies whose actions equal grammar_reduced's once consecutive repeats are collapsed, i.e. that
-move the robot exactly as the uncut reply would.
+mode's; replies of the two grammar modes must be identical. Against grammar_reduced (whole
+replies) it counts, for grammar_fill, the replies whose parsed actions are equal, and for
+grammar_cut those whose actions are equal once consecutive repeats are collapsed (that move the
+robot as the whole reply would, with fewer actions).
 
     .venv/bin/python benchmarks/bench_llm_stage.py                      # 2 episodes x 2 calls, k=18
     .venv/bin/python benchmarks/bench_llm_stage.py --modes grammar_reduced,fast --episodes 5 --calls 10
@@ -91,10 +94,11 @@ def llm_options(max_new_tokens: int | None) -> dict:
 MODES = {
     "plain": {"fast": False, "grammar": "none"},
     "fast": {"grammar": "none"},
-    "grammar": {"grammar": "actions", "reduced_output_layer": False, "stop_at_repeated_action": False},
-    "grammar_reduced": {"grammar": "actions", "reduced_output_layer": True, "stop_at_repeated_action": False},
-    "grammar_repeat": {"grammar": "actions", "reduced_output_layer": True, "stop_at_repeated_action": True},
-    "grammar_draft64": {"grammar": "actions", "reduced_output_layer": True, "stop_at_repeated_action": False, "draft_tokens": 64},
+    "grammar": {"grammar": "actions", "reduced_output_layer": False, "on_repeated_action": "decode"},
+    "grammar_reduced": {"grammar": "actions", "reduced_output_layer": True, "on_repeated_action": "decode"},
+    "grammar_cut": {"grammar": "actions", "reduced_output_layer": True, "on_repeated_action": "cut"},
+    "grammar_fill": {"grammar": "actions", "reduced_output_layer": True, "on_repeated_action": "fill"},
+    "grammar_draft64": {"grammar": "actions", "reduced_output_layer": True, "on_repeated_action": "decode", "draft_tokens": 64},
 }
 
 
@@ -132,6 +136,7 @@ def main() -> None:
 
     import torch
     from xicm.core.parsing import ParseError, parse_actions
+    from xicm.plugins.llms import stopping
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
 
     episodes = build_episodes(args.pool, args.episodes, args.calls, args.k, args.seed, args.shared_demos)
@@ -184,11 +189,15 @@ def main() -> None:
     if "grammar" in modes and "grammar_reduced" in modes:
         same = replies["grammar"] == replies["grammar_reduced"]
         print(f"grammar_reduced replies identical to grammar (full vocabulary): {same}")
-    if "grammar_reduced" in modes and "grammar_repeat" in modes:
-        pairs = list(zip(parsed["grammar_repeat"], parsed["grammar_reduced"]))
+    if "grammar_reduced" in modes and "grammar_cut" in modes:
+        pairs = list(zip(parsed["grammar_cut"], parsed["grammar_reduced"]))
         same_motion = sum(collapse_repeats(a) == collapse_repeats(b) for a, b in pairs)
-        print(f"grammar_repeat replies that move the robot as grammar_reduced's (repeats collapsed): "
+        print(f"grammar_cut replies that move the robot as grammar_reduced's (repeats collapsed): "
               f"{same_motion}/{len(pairs)}")
+    if "grammar_reduced" in modes and "grammar_fill" in modes:
+        pairs = list(zip(parsed["grammar_fill"], parsed["grammar_reduced"]))
+        print(f"grammar_fill replies with grammar_reduced's actions exactly: {sum(a == b for a, b in pairs)}/{len(pairs)}; "
+              f"that repeated an action: {sum(stopping.repeated_action_end(r) is not None for r in replies['grammar_reduced'].values())}")
     if args.batch:
         first = llms[modes[-1]]
         firsts = [calls[0] for calls in episodes]

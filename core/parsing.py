@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 from xicm.core import encoding
@@ -24,13 +25,21 @@ class ParseError:
     kind: str = "parse_error"
 
 
+def innermost_groups(text: str) -> Iterator[tuple[list[int] | None, int]]:
+    """(its 7 integers, or None when it is not a group of exactly 7 integers; the index just past
+    its ']') for every innermost [...] group of the text, in order."""
+    for match in _INNERMOST.finditer(text or ""):
+        parts = [p.strip() for p in match.group(1).split(",")]
+        ints = [int(p) for p in parts] if len(parts) == 7 and all(_INT.match(p) for p in parts) else None
+        yield ints, match.end()
+
+
 def parse_action_ints(text: str, max_actions: int = MAX_ACTIONS) -> list[list[int]]:
     """Every innermost [...] group of exactly 7 integers, in order, at most max_actions."""
     found: list[list[int]] = []
-    for match in _INNERMOST.finditer(text or ""):
-        parts = [p.strip() for p in match.group(1).split(",")]
-        if len(parts) == 7 and all(_INT.match(p) for p in parts):
-            found.append([int(p) for p in parts])
+    for ints, _ in innermost_groups(text):
+        if ints is not None:
+            found.append(ints)
             if len(found) >= max_actions:
                 break
     return found

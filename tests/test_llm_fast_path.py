@@ -19,7 +19,7 @@ from xicm.core.plugins import get_registry
 from xicm.plugins.llms import model_files as mf
 from xicm.plugins.llms.fast_decode import greedy_decode, lookup_draft, plain_greedy
 from xicm.plugins.llms.prefix_cache import PrefixCache, common_prefix_length
-from xicm.plugins.llms.stopping import action_list_end, final_text, repeat_cut, repeated_action_end, tokens_until_end
+from xicm.plugins.llms.stopping import StopRules, action_list_end, repeat_cut, repeat_fill, repeated_action_end
 from xicm.plugins.llms.transformers_local import TransformersLocalLLM
 
 torch = pytest.importorskip("torch")
@@ -39,6 +39,19 @@ def messages(n_demos: int, query: str) -> list[dict[str, str]]:
 
 
 # ---------------------------------------------------------------- pure functions
+def chars(text: str) -> list[int]:
+    """The text as one token per character (decoded by `char_decode`)."""
+    return [ord(c) for c in text]
+
+
+def char_decode(ids: list[int]) -> str:
+    return "".join(map(chr, ids))
+
+
+def reply_of(rules: StopRules, text: str) -> str:
+    return rules.reply(char_decode, chars(text))
+
+
 def test_action_list_end():
     reply = " [[1, 2, 3, 4, 5, 6, 1], [7, 8, 9, 1, 2, 3, 0]] then [[9, 9, 9, 9, 9, 9, 1]]"
     assert reply[: action_list_end(reply)] == " [[1, 2, 3, 4, 5, 6, 1], [7, 8, 9, 1, 2, 3, 0]]"
@@ -47,9 +60,9 @@ def test_action_list_end():
     assert action_list_end("[[1, 2], [3, 4]] [[1, 2, 3, 4, 5, 6, 0]]") == len("[[1, 2], [3, 4]] [[1, 2, 3, 4, 5, 6, 0]]")
     assert action_list_end("] x [[1, 2, 3, 4, 5, 6, 0]]\n") == len("] x [[1, 2, 3, 4, 5, 6, 0]]")
     assert action_list_end("[[[1, 2, 3, 4, 5, 6, 0]]]") == len("[[[1, 2, 3, 4, 5, 6, 0]]]")
-    assert final_text(" [[1, 2, 3, 4, 5, 6, 1]] more\nnext", ["\n"], True) == " [[1, 2, 3, 4, 5, 6, 1]]"
-    assert final_text(" [[1, 2, 3, 4, 5, 6, 1]] more\nnext", ["\n"], False) == " [[1, 2, 3, 4, 5, 6, 1]] more"
-    assert final_text("\nfirst line\nsecond", ["\n"], False) == "\nfirst line"  # a leading newline keeps line one
+    assert reply_of(StopRules(("\n",), True), " [[1, 2, 3, 4, 5, 6, 1]] more\nnext") == " [[1, 2, 3, 4, 5, 6, 1]]"
+    assert reply_of(StopRules(("\n",)), " [[1, 2, 3, 4, 5, 6, 1]] more\nnext") == " [[1, 2, 3, 4, 5, 6, 1]] more"
+    assert reply_of(StopRules(("\n",)), "\nfirst line\nsecond") == "\nfirst line"  # a leading newline keeps line one
 
 
 def test_repeated_action_end_and_cut():
@@ -61,21 +74,38 @@ def test_repeated_action_end_and_cut():
     assert repeated_action_end(f" [{a}, {b}, {a}]") is None  # equal but not consecutive
     assert repeated_action_end(f" [{a}, [1, 2], {a}]") is None  # a group of another size between them
     assert repeated_action_end(f" [{a}, [1, 2, 3, 4, 5, 6, 0]]") is None  # the gripper differs
-    assert final_text(f" [{a}, {a}]\nnext", ["\n"], True, repeat=True) == f" [{a}]"
-    assert final_text(f" [{a}, {a}]", [], True) == f" [{a}, {a}]"  # off by default
+    assert reply_of(StopRules(("\n",), True, "cut"), f" [{a}, {a}]\nnext") == f" [{a}]"
+    assert reply_of(StopRules((), True), f" [{a}, {a}]") == f" [{a}, {a}]"  # decode: the whole reply
+
+
+def test_repeat_fill_writes_the_repeat_on_to_the_token_budget():
+    """One token per character: the repeat ', [b]' costs 23 tokens and the first two groups end at
+    token 46, so a budget of 120 holds 3 copies (46 + 3 * 23 = 115): the reply has 5 actions."""
+    a, b = "[1, 2, 3, 4, 5, 6, 1]", "[7, 8, 9, 1, 2, 3, 0]"
+    text = f" [{a}, {b}, {b}, [2"
+    filled = f" [{a}, {b}" + f", {b}" * 3 + "]"
+    assert repeat_fill(char_decode, chars(text), text, budget=120) == filled
+    assert reply_of(StopRules((), True, "fill", budget=120), text) == filled
+    assert repeat_fill(char_decode, chars(text), text, budget=71) == f" [{a}, {b}, {b}]"  # the repeat itself fits
+    assert repeat_fill(char_decode, chars(text), text, budget=10_000, max_actions=5) == f" [{a}, {b}" + f", {b}" * 3 + "]"
+    # the whole reply of a model that keeps repeating, cut by the budget mid-group, parses to the same actions
+    whole = (f" [{a}, {b}" + f", {b}" * 40)[:120]
+    assert parse_action_ints(repeat_fill(char_decode, chars(text), text, 120)) == parse_action_ints(whole)
+    assert repeat_fill(char_decode, chars(f" [{a}, {b}]"), f" [{a}, {b}]", 120) == f" [{a}, {b}]"  # no repeat
 
 
 def test_tokens_until_end_finds_the_first_ending_token():
     pieces = [" [[1, 2, 3, 4, 5, 6, 1", "]", "]", " tail", "\n", "x"]
     decode = lambda ids: "".join(pieces[i] for i in ids)
     ids = list(range(len(pieces)))
-    assert tokens_until_end(decode, ids, 0, ["\n"], True) == 3
-    assert tokens_until_end(decode, ids, 0, ["\n"], False) == 5
-    assert tokens_until_end(decode, ids[:2], 0, ["\n"], True) is None
+    assert StopRules(("\n",), True).tokens_until_end(decode, ids, 0) == 3
+    assert StopRules(("\n",)).tokens_until_end(decode, ids, 0) == 5
+    assert StopRules(("\n",), True).tokens_until_end(decode, ids[:2], 0) is None
     pieces = [" [[1, 2, 3, 4, 5, 6, 1", "], ", "[1, 2, 3, 4, 5, 6, 1", "]", ", [2"]
     ids = list(range(len(pieces)))
-    assert tokens_until_end(decode, ids, 0, [], False, repeat=True) == 4  # the repeat's closing bracket
-    assert tokens_until_end(decode, ids, 0, [], False) is None
+    for mode in ("cut", "fill"):
+        assert StopRules(on_repeat=mode).tokens_until_end(decode, ids, 0) == 4  # the repeat's closing bracket
+    assert StopRules().tokens_until_end(decode, ids, 0) is None
 
 
 def test_lookup_draft():
@@ -261,7 +291,7 @@ def test_embedded_gemma_fast_path_gives_the_plain_replies(capsys, smoke_pool):
     for prompt in episodes[0]:
         ids = plain.encode(prompt.messages)
         plain_ids, fast_ids = plain.generate_ids(ids), fast.generate_ids(ids)
-        expected, reply = plain.reply_text(plain._decode(plain_ids)), fast.reply_text(fast._decode(fast_ids))
+        expected, reply = plain.reply(plain_ids), fast.reply(fast_ids)
         with capsys.disabled():
             print(f"\nplain: {expected!r}\nfast:  {reply!r} (reused {fast.prefix_cache.reused_tokens} tokens)")
         assert fast_ids == plain_ids[: len(fast_ids)]  # token-identical up to where the fast path stops

@@ -101,7 +101,7 @@ def test_grammar_fast_loop_equals_grammar_constrained_generate(tiny_dir):
     from test_llm_fast_path import CALLS
 
     plain = tiny(tiny_dir, fast=False)
-    whole = {"stop_at_repeated_action": False}  # the whole list, as plain generate writes it
+    whole = {"on_repeated_action": "decode"}  # the whole list, as plain generate writes it
     variants = {
         "reduced": tiny(tiny_dir, **whole),
         "full_vocab": tiny(tiny_dir, reduced_output_layer=False, **whole),
@@ -112,7 +112,7 @@ def test_grammar_fast_loop_equals_grammar_constrained_generate(tiny_dir):
     for messages in CALLS:
         ids = plain.encode(messages)
         expected = plain.generate_ids(ids)
-        text = plain.reply_text(plain._decode(expected))
+        text = plain.reply(expected)
         assert re.fullmatch(ACTIONS_REGEX, text), text
         for name, llm in variants.items():
             assert llm.generate_ids(ids) == [t for t in expected if t != plain._tokenizer.eos_token_id], name
@@ -135,30 +135,42 @@ def repeating_dir(tmp_path_factory) -> Path:
     return out
 
 
-def test_repeated_action_stop_cuts_the_whole_reply_before_its_first_repeat(tiny_dir, repeating_dir):
-    """stop_at_repeated_action: the reply is the whole grammar reply cut before its first repeated
-    action, on the fast loop and in generate (batches); replies without a repeat are unchanged."""
+@pytest.mark.parametrize("mode", ["cut", "fill"])
+def test_repeated_action_stop(tiny_dir, repeating_dir, mode):
+    """on_repeated_action: decoding stops at the first repeated action, alike on the fast loop, the
+    one-token loop and in generate (batches). cut: the whole grammar reply cut before its first
+    repeat. fill: the repeat written on; for a model that keeps repeating, the whole reply's
+    actions. Replies without a repeat are unchanged."""
     from test_llm_fast_path import CALLS
     from xicm.core.types import Prompt, Query
     from xicm.plugins.llms.stopping import repeat_cut, repeated_action_end
 
     prompts = [Prompt(messages=m, demos=[], query=Query("t", "i", {}), workspace=WS) for m in CALLS]
-    assert not tiny(tiny_dir).stop_at_repeat  # opt-in
+    assert tiny(tiny_dir).on_repeated_action == "decode"  # opt-in
     repeats = {}
     for name, folder in (("random", tiny_dir), ("repeating", repeating_dir)):
         whole = tiny(folder)
-        fast = tiny(folder, stop_at_repeated_action=True)
-        one_token = tiny(folder, stop_at_repeated_action=True, draft_tokens=0, prefix_cache=False)
-        assert fast.stop_at_repeat
+        fast = tiny(folder, on_repeated_action=mode)
+        one_token = tiny(folder, on_repeated_action=mode, draft_tokens=0, prefix_cache=False)
         full = [whole.complete_messages(m) for m in CALLS]
         repeats[name] = sum(repeated_action_end(f) is not None for f in full)
-        expected = [repeat_cut(f) for f in full]
-        assert [fast.complete_messages(m) for m in CALLS] == expected, name
-        assert [one_token.complete_messages(m) for m in CALLS] == expected, name
-        assert fast.complete_batch(prompts) == expected, name  # generate with the stopping criteria
-        assert all(re.fullmatch(ACTIONS_REGEX, e) for e in expected)
+        replies = [fast.complete_messages(m) for m in CALLS]
+        if mode == "cut":
+            assert replies == [repeat_cut(f) for f in full], name
+        else:
+            assert [parse_action_ints(r) for r in replies] == [parse_action_ints(f) for f in full], name
+            assert all(r == f for r, f in zip(replies, full) if repeated_action_end(f) is None), name
+        assert [one_token.complete_messages(m) for m in CALLS] == replies, name
+        assert fast.complete_batch(prompts) == replies, name  # generate with the stopping criteria
+        assert all(re.fullmatch(ACTIONS_REGEX, r) for r in replies)
     assert repeats == {"random": 0, "repeating": len(CALLS)}
-    assert tiny(repeating_dir, stop_at_repeated_action=True).complete_messages(CALLS[0]) == "[[0, 0, 0, 0, 0, 0, 0]]"
+    if mode == "cut":
+        assert tiny(repeating_dir, on_repeated_action="cut").complete_messages(CALLS[0]) == "[[0, 0, 0, 0, 0, 0, 0]]"
+    else:  # the whole reply runs into max_new_tokens after a few actions; fill stops decoding at the repeat
+        assert 2 < len(parse_action_ints(tiny(repeating_dir).complete_messages(CALLS[0]))) < 26
+        filler = tiny(repeating_dir, on_repeated_action="fill")
+        filler.complete_messages(CALLS[0])
+        assert filler.last_call["new_tokens"] < tiny(repeating_dir).max_new_tokens
 
 
 def test_grammar_in_batches_and_sampling(tiny_dir):
@@ -181,9 +193,15 @@ def test_grammar_option_identity_and_errors(tiny_dir):
     on = json.loads(TransformersLocalLLM(model=str(tiny_dir)).identity())
     off = json.loads(TransformersLocalLLM(model=str(tiny_dir), grammar="none").identity())
     same_reply = json.loads(TransformersLocalLLM(model=str(tiny_dir), reduced_output_layer=False).identity())
-    cut = json.loads(TransformersLocalLLM(model=str(tiny_dir), stop_at_repeated_action=True).identity())
+    cut = json.loads(TransformersLocalLLM(model=str(tiny_dir), on_repeated_action="cut").identity())
+    fill = json.loads(TransformersLocalLLM(model=str(tiny_dir), on_repeated_action="fill").identity())
+    free_fill = TransformersLocalLLM(model=str(tiny_dir), grammar="none", on_repeated_action="fill")
     assert on["grammar"] == "actions" and "grammar" not in off  # grammar none: today's identity
-    assert cut["stop_at_repeated_action"] is True and "stop_at_repeated_action" not in on | off
+    assert cut["on_repeated_action"] == "cut" and fill["on_repeated_action"] == "fill"
+    assert "on_repeated_action" not in on | off
+    assert free_fill.on_repeated_action == "decode"  # fill needs the grammar: free replies are whole
+    with pytest.raises(ConfigError, match=r"llm.on_repeated_action 'stop' is not one of: decode, cut, fill"):
+        TransformersLocalLLM(model=str(tiny_dir), on_repeated_action="stop")
     assert same_reply == on  # the reduced output layer never changes a reply
     with pytest.raises(ConfigError, match=r"llm.grammar 'json' is unknown; allowed: none, actions"):
         TransformersLocalLLM(model=str(tiny_dir), grammar="json")
@@ -216,16 +234,18 @@ def test_embedded_gemma_reduced_output_layer_gives_the_full_vocabulary_replies(c
     options = {"max_new_tokens": 96, "chat_template": "raw", "max_prompt_tokens": 8192}
     reduced = TransformersLocalLLM(**options)
     full = TransformersLocalLLM(reduced_output_layer=False, **options)
-    cut = TransformersLocalLLM(stop_at_repeated_action=True, **options)
-    full._matchers = cut._matchers = reduced.matchers()  # one tokenizer conversion for all
+    cut = TransformersLocalLLM(on_repeated_action="cut", **options)
+    fill = TransformersLocalLLM(on_repeated_action="fill", **options)
+    full._matchers = cut._matchers = fill._matchers = reduced.matchers()  # one tokenizer conversion for all
     for calls in episodes:
         prompt = calls[0]
         ids = reduced.encode(prompt.messages)
         a, b = reduced.generate_ids(ids), full.generate_ids(ids)
-        text = reduced.reply_text(reduced._decode(a))
+        text = reduced.reply(a)
         with capsys.disabled():
             print(f"\nreduced: {text!r}")
         assert a == b
         assert cut.complete(prompt) == repeat_cut(text)  # the stop at a repeated action only cuts
+        assert fill.complete(prompt).startswith(repeat_cut(text).rstrip("]"))  # decoded alike up to the repeat
         assert re.fullmatch(ACTIONS_REGEX, text)
         assert isinstance(parse_actions(text, prompt.workspace), list)

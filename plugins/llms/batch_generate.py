@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from xicm.plugins.llms.stopping import batch_stopping_criteria
+from xicm.plugins.llms.stopping import StopRules
 
 
 def left_pad(id_lists: Sequence[Sequence[int]], pad_id: int):
@@ -33,10 +33,8 @@ def generate_batch(
     id_lists: Sequence[Sequence[int]],
     pad_id: int,
     decode: Callable[[list[int]], str],
-    stop_strings: Sequence[str],
-    action_list: bool,
+    rules: StopRules,
     generation_kwargs: dict[str, Any],
-    repeat: bool = False,
 ) -> list[list[int]]:
     """New token ids per prompt (padding removed), each row stopped once its reply ends."""
     import torch
@@ -47,7 +45,7 @@ def generate_batch(
     device = next(model.parameters()).device
     input_ids, mask = input_ids.to(device), mask.to(device)
     width = input_ids.shape[1]
-    criteria = batch_stopping_criteria(decode, width, stop_strings, action_list, repeat)
+    criteria = rules.criteria(decode, width)
     from transformers import StoppingCriteriaList
 
     with torch.inference_mode():

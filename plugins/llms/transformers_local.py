@@ -57,16 +57,19 @@ stop_at_action_list (True)
     the first nested ``[[...], ...]`` holding a 7-integer group); the text is cut there. The
     text up to there is plain generate's; only what the model would have written after it on
     the same line is not generated.
-stop_at_repeated_action (False)
-    End the reply once an action equals the action before it (`xicm.plugins.llms.stopping.repeat_cut`):
-    the reply is cut before the repeat and its list closed. A greedy small model that has
-    written its plan tends to repeat its last action up to max_new_tokens; a repeated action
-    moves nothing, so what the reply executes changes only if the model would have gone on to a
-    different action after repeating one (benchmarks/bench_llm_stage.py counts such replies).
-    Changes replies (it is part of identity()). Off by default: ``max_steps`` counts the repeats
-    a whole reply would have run, so a cut reply leaves more steps, and the policy asks again;
-    measured on AGNOSTOS episodes that fail, it made 13-25 LLM calls where whole replies made 3
-    (docs/DESIGN.md). Useful with ``policy.max_llm_calls`` set.
+on_repeated_action ("decode")
+    What happens when the reply writes an action equal to the action before it (a greedy small
+    model that has written its plan tends to repeat its last action up to max_new_tokens);
+    see `xicm.plugins.llms.stopping`. ``decode``: nothing, the whole reply is decoded. ``cut``:
+    decoding stops and the reply is cut before the repeat, its list closed; it runs fewer
+    actions than the whole reply, so ``max_steps`` leaves room for more LLM calls (measured on
+    AGNOSTOS episodes that fail: 13-25 calls where whole replies made 3, docs/DESIGN.md).
+    ``fill`` (greedy decoding with ``grammar: actions`` only; otherwise the whole reply is
+    decoded): decoding stops and the repeat is copied on as far as the whole reply would have
+    gone had the model kept repeating (max_new_tokens, each copy costing the tokens the model
+    spent on the repeat, or 26 actions), so the reply runs the whole reply's actions unless the
+    model would have turned to another action; benchmarks/bench_llm_stage.py counts replies
+    whose actions equal the whole reply's. Both change replies (part of identity()).
 prefix_cache (True)
     Keep the key/value states of the previous prompt and reuse those of the longest common
     token prefix (system message and demos), so only the new suffix is run through the model
@@ -101,7 +104,7 @@ import hashlib
 import json
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Optional
 
@@ -143,7 +146,7 @@ class TransformersLocalOptions:
     trust_remote_code: bool = False
     fast: bool = True
     stop_at_action_list: bool = True
-    stop_at_repeated_action: bool = False
+    on_repeated_action: str = field(default="decode", metadata=one_of(*stopping.REPEAT_MODES))
     prefix_cache: bool = True
     draft_tokens: int = field(default=16, metadata=at_least(0))
     grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))
@@ -173,7 +176,7 @@ class TransformersLocalLLM(LLM):
         trust_remote_code: bool = False,
         fast: bool = True,
         stop_at_action_list: bool = True,
-        stop_at_repeated_action: bool = False,
+        on_repeated_action: str = "decode",
         prefix_cache: bool = True,
         draft_tokens: int = 16,
         grammar: str = "actions",
@@ -208,7 +211,13 @@ class TransformersLocalLLM(LLM):
         self.fast = bool(fast)
         self.stop_at_action_list = self.fast and bool(stop_at_action_list)
         self.grammar = check_grammar(str(grammar))
-        self.stop_at_repeat = self.fast and bool(stop_at_repeated_action)
+        if on_repeated_action not in stopping.REPEAT_MODES:
+            raise ConfigError(
+                f"llm.on_repeated_action '{on_repeated_action}' is not one of: {', '.join(stopping.REPEAT_MODES)}"
+            )
+        fill_applies = self.grammar != "none" and not self.do_sample
+        keep = on_repeated_action if on_repeated_action != "fill" or fill_applies else "decode"
+        self.on_repeated_action = keep if self.fast else "decode"
         self.use_prefix_cache = self.fast and bool(prefix_cache)
         self.draft_tokens = int(draft_tokens) if self.fast else 0
         self.reduced_output_layer = bool(reduced_output_layer)
@@ -417,12 +426,10 @@ class TransformersLocalLLM(LLM):
         extra: dict[str, Any] = {}
         if self.stop_strings:
             extra = {"stop_strings": self.stop_strings, "tokenizer": self._tokenizer}
-        if self.stop_at_action_list or self.stop_at_repeat:  # the fast path on a model whose cache it cannot reuse
+        if self.stop_at_action_list or self.rules.stops_at_repeat:  # the fast path on a model whose cache it cannot reuse
             from transformers import StoppingCriteriaList
 
-            criteria = stopping.batch_stopping_criteria(
-                self._decode, len(ids), [], self.stop_at_action_list, self.stop_at_repeat
-            )
+            criteria = replace(self.rules, strings=()).criteria(self._decode, len(ids))
             extra["stopping_criteria"] = StoppingCriteriaList([criteria])
         extra.update(self._grammar_kwargs(1))
         with torch.inference_mode():
@@ -453,7 +460,7 @@ class TransformersLocalLLM(LLM):
             new_ids = grammar_greedy_decode(
                 self._model, cache, ids, self.max_new_tokens, self.matchers().new(), self._vocab_size(),
                 self.draft_tokens, self.reduced_output_layer and reduced_head_supported(self._model),
-                ends=self._repeat_ends if self.stop_at_repeat else None,
+                ends=self.rules.repeat_ends(self._decode),
             )
             self.last_call.update(decode_s=time.perf_counter() - t0, new_tokens=len(new_ids))
             return new_ids
@@ -469,9 +476,7 @@ class TransformersLocalLLM(LLM):
         from transformers import StoppingCriteriaList
 
         input_ids = torch.tensor([ids], dtype=torch.long, device=self.device)
-        criteria = stopping.batch_stopping_criteria(
-            self._decode, len(ids), self.stop_strings, self.stop_at_action_list, self.stop_at_repeat
-        )
+        criteria = self.rules.criteria(self._decode, len(ids))
         if self.do_sample:
             torch.manual_seed(self.seed)
         with torch.inference_mode():
@@ -509,13 +514,14 @@ class TransformersLocalLLM(LLM):
         return self._tokenizer.decode(new_ids, skip_special_tokens=True)
 
     def _tokens_until_end(self, new_ids: list[int], checked: int) -> int | None:
-        return stopping.tokens_until_end(
-            self._decode, new_ids, checked, self.stop_strings, self.stop_at_action_list, self.stop_at_repeat
-        )
+        return self.rules.tokens_until_end(self._decode, new_ids, checked)
 
-    def _repeat_ends(self, new_ids: list[int]) -> bool:
-        """Whether the grammar loop's reply so far has repeated an action (it is cut in reply_text)."""
-        return stopping.repeated_action_end(self._decode(new_ids)) is not None
+    @property
+    def rules(self) -> stopping.StopRules:
+        """What ends a reply and what text it leaves (stop strings resolved once loaded)."""
+        return stopping.StopRules(
+            tuple(self.stop_strings), self.stop_at_action_list, self.on_repeated_action, self.max_new_tokens
+        )
 
     def _pad_id(self) -> int:
         pad = self._tokenizer.pad_token_id
@@ -527,8 +533,7 @@ class TransformersLocalLLM(LLM):
     def complete_messages(self, messages: list[dict[str, str]]) -> str:
         """Reply to raw chat messages (complete() without a Prompt object)."""
         ids = self._fit(self.encode(messages))
-        new_ids = self.generate_ids(ids)
-        return self.reply_text(self._decode(new_ids))
+        return self.reply(self.generate_ids(ids))
 
     def complete_batch(self, prompts: list[Prompt]) -> list[str]:
         """Replies to several prompts from one left-padded generate call (no prefix cache; greedy
@@ -542,16 +547,15 @@ class TransformersLocalLLM(LLM):
 
             torch.manual_seed(self.seed)
         rows = generate_batch(
-            self._model, id_lists, self._pad_id(), self._decode, self.stop_strings,
-            self.stop_at_action_list, {**self.generation_kwargs(), **self._grammar_kwargs(len(id_lists))},
-            repeat=self.stop_at_repeat,
+            self._model, id_lists, self._pad_id(), self._decode, self.rules,
+            {**self.generation_kwargs(), **self._grammar_kwargs(len(id_lists))},
         )
-        return [self.reply_text(self._decode(row)) for row in rows]
+        return [self.reply(row) for row in rows]
 
-    def reply_text(self, text: str) -> str:
-        """The decoded new text cut at the first stop string (and before a repeated action and
-        after the action list when those stops are on)."""
-        return stopping.final_text(text, self.stop_strings, self.stop_at_action_list, self.stop_at_repeat)
+    def reply(self, new_ids: list[int]) -> str:
+        """The reply text of the new token ids: cut at the first stop string, the repeated action
+        cut or filled (on_repeated_action), cut after the action list (stop_at_action_list)."""
+        return self.rules.reply(self._decode, new_ids)
 
     def cut_at_stop(self, text: str) -> str:
         """Text up to the first stop string (a reply that starts with one keeps its first line)."""
@@ -575,8 +579,8 @@ class TransformersLocalLLM(LLM):
             settings["grammar"] = self.grammar
         if self.stop_at_action_list:  # speed options that can change a reply (they cut it)
             settings["stop_at_action_list"] = True
-        if self.stop_at_repeat:
-            settings["stop_at_repeated_action"] = True
+        if self.on_repeated_action != "decode":
+            settings["on_repeated_action"] = self.on_repeated_action
         if self.do_sample:
             settings.update(
                 temperature=self.temperature, top_p=self.top_p, repetition_penalty=self.repetition_penalty, seed=self.seed
