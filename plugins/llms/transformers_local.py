@@ -68,8 +68,10 @@ on_repeated_action ("decode")
     decoded): decoding stops and the repeat is copied on as far as the whole reply would have
     gone had the model kept repeating (max_new_tokens, each copy costing the tokens the model
     spent on the repeat, or 26 actions), so the reply runs the whole reply's actions unless the
-    model would have turned to another action; benchmarks/bench_llm_stage.py counts replies
-    whose actions equal the whole reply's. Both change replies (part of identity()).
+    model would have turned to another action: the embedded model often copies the demos' runs
+    of 3-4 equal key actions and then moves on (docs/DESIGN.md: 49/50 bench replies kept the
+    whole reply's actions, 5/15 first replies of real AGNOSTOS episodes). Both change replies
+    (part of identity()); both are opt-in.
 prefix_cache (True)
     Keep the key/value states of the previous prompt and reuse those of the longest common
     token prefix (system message and demos), so only the new suffix is run through the model
