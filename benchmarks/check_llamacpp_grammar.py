@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import socket
 import statistics
 import subprocess
 import sys
@@ -40,6 +39,8 @@ import tempfile
 import time
 import urllib.request
 from pathlib import Path
+
+from xicm.serving.ports import ServerNotReady, free_port, wait_http_ok
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -65,27 +66,6 @@ def embedded_gguf() -> Path:
 
     package = embedded_package()
     return Path(package.assemble(cache_dir() / "gguf" / package.MODEL_NAME))
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_healthy(url: str, server: subprocess.Popen, timeout_s: float) -> float:
-    t0 = time.perf_counter()
-    while time.perf_counter() - t0 < timeout_s:
-        if server.poll() is not None:
-            raise SystemExit(f"llama-server exited with code {server.returncode} before /health answered")
-        try:
-            with urllib.request.urlopen(url + "/health", timeout=2) as reply:
-                if reply.status == 200:
-                    return time.perf_counter() - t0
-        except OSError:
-            pass
-        time.sleep(0.5)
-    raise SystemExit(f"llama-server did not answer {url}/health within {timeout_s:g} s")
 
 
 def models_list(url: str) -> list[str]:
@@ -150,7 +130,11 @@ def main() -> None:
     log = tempfile.NamedTemporaryFile(prefix="llama-server-", suffix=".log", delete=False)
     server = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
     try:
-        print(f"/health after {wait_healthy(url, server, 300):.1f} s (log: {log.name})")
+        try:
+            ready_s = wait_http_ok(url + "/health", server, 300)
+        except ServerNotReady as exc:
+            raise SystemExit(str(exc)) from None
+        print(f"/health after {ready_s:.1f} s (log: {log.name})")
         served = models_list(url)
         print(f"/v1/models ids: {served}")
         options = dict(base_url=url + "/v1", model=served[0], mode="completion", completion_format="raw",

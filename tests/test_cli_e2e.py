@@ -58,12 +58,10 @@ def test_eval_writes_results_and_resumes(workdir):
 
 
 def test_a_dead_llm_server_stops_the_run_before_any_episode(workdir):
-    import socket
+    from xicm.serving.ports import free_port
 
     work, common = workdir
-    with socket.socket() as s:  # a port nothing listens on
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    port = free_port()  # nothing listens there
     args = ["benchmark=smoke", "episodes=1", "llm=openai", f"llm.base_url=http://127.0.0.1:{port}/v1", "hydra.run.dir=dead", *common]
     out = subprocess.run([str(BIN / "xicm-eval"), *args], capture_output=True, text=True, cwd=work, timeout=600)
     assert out.returncode == 2 and f"no OpenAI-compatible server answered at http://127.0.0.1:{port}/v1/models" in out.stderr

@@ -11,12 +11,10 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import socket
 import subprocess
 import sys
 import threading
 import time
-import urllib.request
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
@@ -31,6 +29,7 @@ from xicm.plugins.llms import openai_compatible
 from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX
 from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
 from xicm.plugins.llms.rendering import render_plain, render_raw
+from xicm.serving.ports import free_port, wait_http_ok
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 MESSAGES = [
@@ -230,9 +229,7 @@ def test_timeout_is_bounded_and_retried(fake):
 
 
 def test_unreachable_server():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]  # closed again: nothing listens there
+    port = free_port()  # nothing listens there
     client = OpenAICompatibleLLM(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=1)
     with pytest.raises(LLMError, match=r"failed after 2 attempt\(s\): cannot connect \(.*refused"):
         client.complete(make_prompt())
@@ -253,9 +250,7 @@ def test_the_server_is_checked_once_at_start(fake):
 
 
 def test_a_dead_server_is_one_sentence_at_start_without_retries():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    port = free_port()
     start = time.perf_counter()
     with pytest.raises(ConfigError, match=rf"llm.base_url: no OpenAI-compatible server answered at http://127.0.0.1:{port}/v1/models"):
         OpenAICompatibleLLM(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=3).check_ready()
@@ -286,26 +281,6 @@ def test_config_errors_and_registration():
 
 
 # ---------------------------------------------------------------- real `transformers serve`
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _wait_ready(url: str, proc: subprocess.Popen, deadline_s: float) -> float:
-    start = time.monotonic()
-    while time.monotonic() - start < deadline_s:
-        if proc.poll() is not None:
-            raise AssertionError(f"transformers serve exited with code {proc.returncode}")
-        try:
-            with urllib.request.urlopen(url, timeout=2) as response:
-                if response.status == 200:
-                    return time.monotonic() - start
-        except OSError:
-            time.sleep(1.0)
-    raise AssertionError(f"transformers serve not ready within {deadline_s} s")
-
-
 @pytest.fixture(scope="module")
 def served_model(tmp_path_factory):
     """`transformers serve` on the embedded model: (model folder, base URL)."""
@@ -320,7 +295,7 @@ def served_model(tmp_path_factory):
     folder = embedded_model_dir()  # converts on first use (~80 s), then cached
     cli = shutil.which("transformers", path=str(Path(sys.executable).parent)) or shutil.which("transformers")
     assert cli, "the transformers console script is not installed"
-    port = _free_port()
+    port = free_port()
     env = dict(os.environ, HF_HUB_OFFLINE="1")
     log = open(tmp_path_factory.mktemp("serve") / "serve.log", "w+")
     proc = subprocess.Popen(
@@ -330,7 +305,7 @@ def served_model(tmp_path_factory):
         env=env,
     )
     try:
-        ready_s = _wait_ready(f"http://127.0.0.1:{port}/health", proc, deadline_s=180)
+        ready_s = wait_http_ok(f"http://127.0.0.1:{port}/health", proc, timeout_s=180)
         print(f"\ntransformers serve: ready after {ready_s:.0f} s")
         yield folder, f"http://127.0.0.1:{port}/v1"
     finally:

