@@ -132,6 +132,8 @@ def _loop(
 
     try:
         obs = timed("reset", simulator.reset, result.task, result.seed, result.episode)
+    except EpisodeFailure:
+        raise
     except Exception as exc:
         raise EpisodeFailure("sim_error", f"reset failed: {type(exc).__name__}: {exc}") from exc
     reword = episode_instruction(simulator, obs, result.task, result.seed, result.episode, instructions)

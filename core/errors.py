@@ -34,6 +34,7 @@ ERROR_KINDS = (
     "llm_error",  # the LLM failed to answer
     "unreachable",  # IK/planning could not reach a pose
     "sim_error",  # the simulator raised during the episode
+    "unsolvable_scene",  # simulator.scenes: rlbench: no draw of the scene was solved by the task's demonstrator
     "detector_error",  # the detector failed
     "retrieval_error",  # the retriever failed
     "max_steps",  # the step budget ran out without success

@@ -7,6 +7,9 @@ from xicm.core.schema import above, one_of, rule
 
 GRASP_MODES = ("attach", "friction")
 SUCCESS_CHECKS = ("per_action", "per_frame")
+#: ours: each task's own ranges (every scene solvable by its demonstrator); rlbench: RLBench's
+#: ranges, each scene redrawn until the task's scripted solution solves it (scenes.py)
+SCENE_RANGES = ("ours", "rlbench")
 CAMERA_NAMES = ("front", "left_shoulder", "right_shoulder", "overhead", "wrist")
 #: per-step action spaces of `step(action)` (control_modes.py has their layouts)
 CONTROL_MODES = ("ee_delta", "ee_pose", "joint_pos", "joint_delta")
@@ -79,6 +82,9 @@ class SapienOptions:
     grasp: str = field(default="attach", metadata=one_of(*GRASP_MODES))
     #: per_frame: success read after every control frame, the move ends when it holds (RLBench)
     success_check: str = field(default="per_action", metadata=one_of(*SUCCESS_CHECKS))
+    scenes: str = field(default="ours", metadata=one_of(*SCENE_RANGES))
+    #: scenes: rlbench: draws of one episode's scene before it counts as unsolvable
+    max_scene_draws: int = field(default=20, metadata=above(0))
 
 
 def frames_per_step(frame_hz: float, control_hz: float) -> int:

@@ -7,6 +7,7 @@ from typing import Callable, Mapping
 import numpy as np
 import sapien
 
+from xicm.core.errors import EpisodeFailure
 from xicm.core.interfaces import Simulator
 from xicm.core.seeding import episode_rng
 from xicm.core.types import (
@@ -24,7 +25,7 @@ from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
 from .grasp import GraspAttacher
 from .objects import ObjectSet
-from .options import CONTROL_MODES, GRASP_MODES, SUCCESS_CHECKS, frames_per_step, sizes_per_camera
+from .options import CONTROL_MODES, GRASP_MODES, SCENE_RANGES, SUCCESS_CHECKS, frames_per_step, sizes_per_camera
 from .robot import ARM_JOINTS
 from .scene import TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
@@ -75,6 +76,8 @@ class SapienSimulator(Simulator):
         joint_speed: float = 1.3,
         grasp: str = "attach",
         success_check: str = "per_action",
+        scenes: str = "ours",
+        max_scene_draws: int = 20,
         *,
         tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
@@ -108,6 +111,11 @@ class SapienSimulator(Simulator):
         self.per_frame_success = success_check == "per_frame"
         if grasp == "attach":
             self.world.grasp = self.controller.grasp = GraspAttacher(self.world.scene, self.robot)
+        if scenes not in SCENE_RANGES:
+            raise ValueError(f"simulator option scenes is '{scenes}'; allowed: {', '.join(SCENE_RANGES)}")
+        self.scenes = scenes
+        self.max_scene_draws = int(max_scene_draws)
+        self.scene_draw = 0  # which draw of the episode's scene is set up (scenes: rlbench)
         self.sample_variations = bool(sample_variations)
         self.tasks = dict(tasks)
         self.task = None
@@ -133,7 +141,26 @@ class SapienSimulator(Simulator):
         return self.observe()
 
     def reset_state(self, task: str, seed: int, episode: int) -> None:
-        """reset() without rendering (physics-only work such as collecting trajectories)."""
+        """reset() without rendering (physics-only work such as collecting trajectories).
+
+        scenes: rlbench: the scene is drawn from RLBench's ranges again and again (each draw from
+        its own seeded stream) until the task's scripted solution solves it, as RLBench's stored
+        evaluation episodes are scenes its demonstrator solved; then that draw is set up afresh."""
+        draw = self._solvable_draw(task, seed, episode) if self.scenes == "rlbench" else 0
+        self._set_up(task, seed, episode, draw)
+
+    def _solvable_draw(self, task: str, seed: int, episode: int) -> int:
+        for draw in range(self.max_scene_draws):
+            self._set_up(task, seed, episode, draw)
+            if self.demonstrate().success:
+                return draw
+        raise EpisodeFailure(
+            "unsolvable_scene",
+            f"{task} seed {seed} episode {episode}: the scripted solution solved none of {self.max_scene_draws} "
+            "scenes drawn from RLBench's ranges (simulator.max_scene_draws)"
+        )
+
+    def _set_up(self, task: str, seed: int, episode: int, draw: int) -> None:
         cls = self._task_class(task)
         if self.world.grasp is not None:
             self.world.grasp.release()
@@ -141,7 +168,10 @@ class SapienSimulator(Simulator):
         self.robot.reset()
         self.task = cls(self.world, self.objects)
         self.task.load()
-        self.task.initialise(episode_rng(seed, task, episode), self.sample_variations)
+        self.task.ranges = self.scenes
+        rng = episode_rng(seed, task, episode, "scene" if draw == 0 else f"scene-draw-{draw}")
+        self.task.initialise(rng, self.sample_variations)
+        self.scene_draw = draw
         if self.world.grasp is not None:
             self.world.grasp.reset(self.task.graspable_ids())
         self.task_name, self.seed, self.episode = task, int(seed), int(episode)

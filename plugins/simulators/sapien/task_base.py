@@ -80,6 +80,8 @@ class Task(ABC):
         #: ConditionSet) keep each one met once it was (see ordered())
         self.latching = False
         self._met_in_order: dict[str, int] = {}
+        #: which randomisation ranges initialise() draws from: "ours" or "rlbench" (span())
+        self.ranges = "ours"
 
     # --- to implement ----------------------------------------------------------------------
     @abstractmethod
@@ -106,6 +108,10 @@ class Task(ABC):
         """Key actions of the scripted demonstrator, computed from the true state as it goes."""
 
     # --- helpers ---------------------------------------------------------------------------
+    def span(self, ours: tuple[float, float], rlbench: tuple[float, float]) -> tuple[float, float]:
+        """The (low, high) range in effect: this task's own, or RLBench's (simulator.scenes)."""
+        return rlbench if self.ranges == "rlbench" else ours
+
     def ordered(self, name: str, *conditions) -> bool:
         """Whether the `conditions` (callables) hold in order, as RLBench's ConditionSet with
         order_matters: with `latching` each one stays met once it was, in the order given (a

@@ -90,7 +90,7 @@ class LampTask(Task):
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x = rng.uniform(0.15, 0.35)
         y = rng.uniform(-0.20, 0.20)
-        yaw = np.deg2rad(rng.uniform(-90.0, 90.0))
+        yaw = np.deg2rad(rng.uniform(*self.span(ours=(-90.0, 90.0), rlbench=(-180.0, 180.0))))
         arm_yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
         self.lamp = self._build(arm_yaw, yaw_pose(x, y, TABLE_TOP_Z, yaw))
         self.lamp.set_qpos(np.zeros(1))
