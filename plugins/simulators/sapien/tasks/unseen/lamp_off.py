@@ -9,7 +9,8 @@ Task description:
 Randomisations:
     - lamp centre x in [0.15, 0.35] m, y in [-0.20, 0.20] m, yaw in [-90, 90] degrees (RLBench's
       default is [-180, 180]; beyond about 125 degrees the stem and shade stand between the
-      robot and the button, and the demonstrator's press failed in 6 of 9 such seeds);
+      robot and the button, and the demonstrator's press failed in 6 of 9 such seeds;
+      simulator.scenes: rlbench draws [-180, 180] and redraws scenes the demonstrator fails);
     - the direction of the lamp's arm: in [-30, 30] degrees from straight back.
 
 Success conditions:
