@@ -8,7 +8,7 @@ from xicm.core.schema import above, one_of, rule
 GRASP_MODES = ("attach", "friction")
 SUCCESS_CHECKS = ("per_action", "per_frame")
 #: ours: each task's own ranges (every scene solvable by its demonstrator); rlbench: RLBench's
-#: ranges, each scene redrawn until the task's scripted solution solves it (scenes.py)
+#: ranges, each scene redrawn until the task's scripted solution solves it (SapienSimulator.reset_state)
 SCENE_RANGES = ("ours", "rlbench")
 CAMERA_NAMES = ("front", "left_shoulder", "right_shoulder", "overhead", "wrist")
 #: per-step action spaces of `step(action)` (control_modes.py has their layouts)
