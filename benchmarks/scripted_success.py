@@ -6,7 +6,10 @@ text grid, reset the same episode and execute them. Physics only (no rendering).
 
     python benchmarks/scripted_success.py [--seeds 50] [--first-seed 0] [--grasp attach|friction]
         [--success-check per_action|per_frame]
-        [--tasks open_drawer push_buttons ...]
+        [--scenes ours|rlbench] [--tasks open_drawer push_buttons ...]
+
+With --scenes rlbench each scene is redrawn until the demonstrator solves it; the draws
+column gives the mean number of draws per accepted scene and how many seeds had none solvable.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import numpy as np
 
 def main() -> None:
     from xicm.plugins.simulators.sapien.replay import demo_key_actions, replay
+    from xicm.core.errors import EpisodeFailure
     from xicm.core.plugins import get_registry
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -29,6 +33,7 @@ def main() -> None:
     parser.add_argument("--physics-hz", type=float, default=200.0)
     parser.add_argument("--grasp", choices=("attach", "friction"), default="attach", help="simulator.grasp mode")
     parser.add_argument("--success-check", choices=("per_action", "per_frame"), default="per_action")
+    parser.add_argument("--scenes", choices=("ours", "rlbench"), default="ours", help="simulator.scenes")
     parser.add_argument("--first-seed", type=int, default=0, help="first seed (to run a range in chunks)")
     args = parser.parse_args()
 
@@ -39,17 +44,24 @@ def main() -> None:
         "physics_hz": args.physics_hz,
         "grasp": args.grasp,
         "success_check": args.success_check,
+        "scenes": args.scenes,
     }
     sim = get_registry().create_simulator(options)
     tasks = args.tasks or sim.task_names()
-    print(f"{'task':<18} {'demo ok':>9} {'replay ok':>10} {'raw replay':>11} {'frames':>7} {'keys':>5} {'s/demo':>7}")
+    print(f"{'task':<18} {'demo ok':>9} {'replay ok':>10} {'raw replay':>11} {'frames':>7} {'keys':>5} {'s/demo':>7} {'draws':>11}")
     for task in tasks:
         demo_ok = replay_ok = raw_ok = 0
         frames, keys, secs = [], [], []
-        failures = []
+        failures, draws, unsolvable = [], [], 0
         for seed in range(args.first_seed, args.first_seed + args.seeds):
             t0 = time.perf_counter()
-            sim.reset_state(task, seed, 0)
+            try:
+                sim.reset_state(task, seed, 0)
+            except EpisodeFailure as failure:  # scenes: rlbench, no draw solvable
+                unsolvable += 1
+                failures.append(f"s{seed}: {failure}")
+                continue
+            draws.append(sim.scene_draw + 1)
             traj = sim.demonstrate()
             secs.append(time.perf_counter() - t0)
             demo_ok += traj.success
@@ -70,7 +82,7 @@ def main() -> None:
         rep = "-" if args.no_replay else f"{replay_ok}/{n}"
         raw = "-" if args.no_replay else f"{raw_ok}/{n}"
         mean_keys = f"{np.mean(keys):.1f}" if keys else "-"
-        print(f"{task:<18} {demo_ok:>4}/{n:<4} {rep:>10} {raw:>11} {np.mean(frames):>7.1f} {mean_keys:>5} {np.mean(secs):>7.2f}")
+        print(f"{task:<18} {demo_ok:>4}/{n:<4} {rep:>10} {raw:>11} {np.mean(frames):>7.1f} {mean_keys:>5} {np.mean(secs):>7.2f} {np.mean(draws) if draws else 0:>5.2f} ({unsolvable})")
         for line in failures:
             print(f"    {line}")
     sim.close()

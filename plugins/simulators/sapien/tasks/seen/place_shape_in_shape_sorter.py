@@ -12,7 +12,7 @@ Randomisations:
       default is [-180, 180]; there the demonstrator fails 6 of 100 seeds, the cylinder and the
       cuboid jamming in their slots with the sorter turned by 60 to 120 degrees);
     - shape centres x in [0.00, 0.14] m, y in [-0.24, 0.24] m, at least 0.09 m apart,
-      yaw in [-45, 45] degrees.
+      yaw in [-45, 45] degrees (sorter and shapes: simulator.scenes: rlbench draws [-180, 180] and redraws scenes the demonstrator fails).
 
 Success conditions:
     The named shape is inside the sorter: its centre within the sorter's walls and below its lid.
@@ -119,7 +119,7 @@ class PlaceShapeInShapeSorter(Task):
         variation = int(rng.integers(len(SHAPES)))
         self.variation = variation if sample_variation else 0
         self.episode_instruction = f"put the {SHAPES[self.variation]} in the shape sorter"
-        yaw = np.deg2rad(rng.uniform(-45.0, 45.0))
+        yaw = np.deg2rad(rng.uniform(*self.span(ours=(-45.0, 45.0), rlbench=(-180.0, 180.0))))
         self.sorter.set_pose(yaw_pose(rng.uniform(0.30, 0.34), rng.uniform(-0.05, 0.05), TABLE_TOP_Z, yaw))
         positions: list[np.ndarray] = []
         while len(positions) < len(self.shapes):
@@ -127,7 +127,8 @@ class PlaceShapeInShapeSorter(Task):
             if all(np.linalg.norm(p - q) >= 0.09 for q in positions):
                 positions.append(p)
         for shape, p in zip(self.shapes, positions):
-            shape.set_pose(yaw_pose(p[0], p[1], TABLE_TOP_Z + SHAPE_H / 2, np.deg2rad(rng.uniform(-45.0, 45.0))))
+            shape_yaw = np.deg2rad(rng.uniform(*self.span(ours=(-45.0, 45.0), rlbench=(-180.0, 180.0))))
+            shape.set_pose(yaw_pose(p[0], p[1], TABLE_TOP_Z + SHAPE_H / 2, shape_yaw))
 
     def in_sorter(self, index: int) -> bool:
         local = np.asarray((self.sorter.pose.inv() * self.shapes[index].pose).p)

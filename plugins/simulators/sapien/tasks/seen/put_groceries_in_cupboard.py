@@ -11,7 +11,8 @@ Randomisations:
     - the item (variation 0: soup, 1: crackers, 2: mustard, 3: sugar) when variations are
       sampled;
     - cupboard centre x in [0.54, 0.58] m, y in [-0.06, 0.06] m, yaw in [-10, 10] degrees
-      (RLBench's is +-1 rad; there the demonstrator fails 7 of 30 seeds, at +-20 degrees 7 of 100);
+      (RLBench's is +-1 rad; there the demonstrator fails 7 of 30 seeds, at +-20 degrees 7 of 100;
+      simulator.scenes: rlbench draws +-1 rad and redraws scenes the demonstrator fails);
     - the items' order along the table (four slots 0.16 m apart, jittered by up to 0.02 m),
       x in [0.28, 0.36] m and yaw in [-15, 15] degrees each.
 
@@ -109,7 +110,8 @@ class PutGroceriesInCupboard(Task):
         variation = int(rng.integers(len(ITEMS)))
         self.variation = variation if sample_variation else 0
         self.episode_instruction = f"put the {ITEMS[self.variation]} in the cupboard"
-        yaw = np.deg2rad(rng.uniform(-10.0, 10.0))
+        one_rad = np.rad2deg(1.0)  # RLBench's base_rotation_bounds: +-1 rad
+        yaw = np.deg2rad(rng.uniform(*self.span(ours=(-10.0, 10.0), rlbench=(-one_rad, one_rad))))
         self.cupboard_pose = yaw_pose(rng.uniform(0.54, 0.58), rng.uniform(-0.06, 0.06), TABLE_TOP_Z, yaw)
         self.cupboard.set_root_pose(self.cupboard_pose)
         order = rng.permutation(len(ITEMS))

@@ -13,7 +13,8 @@ Randomisations:
     - stick on the left or right side, centre x in [0.12, 0.18] m, |y| in [0.31, 0.35] m,
       yaw in [-45, 45] degrees (was [-10, 10]; RLBench's +-180, i.e. +-90 for the two-ended
       stick, failed 5 (attach) and 6 (friction) of 100 seeds, s2 s55 s65 s89 s94 (+ s24),
-      all with the stick turned 50-82 degrees: not solved).
+      all with the stick turned 50-82 degrees: not solved; simulator.scenes: rlbench draws
+      [-90, 90] and redraws scenes the demonstrator fails).
 
 Success conditions:
     The cube rests on the table (centre below 4.5 cm above the top) with its centre inside
@@ -88,7 +89,8 @@ class ReachAndDrag(Task):
         self.cube.set_pose(yaw_pose(cx, cy, TABLE_TOP_Z + CUBE_HALF, np.deg2rad(rng.uniform(-45.0, 45.0))))
         side = 1.0 if rng.random() < 0.5 else -1.0
         sx, sy = rng.uniform(0.12, 0.18), side * rng.uniform(0.31, 0.35)
-        self.stick.set_pose(yaw_pose(sx, sy, TABLE_TOP_Z + STICK_HALF[2], np.deg2rad(rng.uniform(-45.0, 45.0))))
+        stick_yaw = np.deg2rad(rng.uniform(*self.span(ours=(-45.0, 45.0), rlbench=(-90.0, 90.0))))  # two-ended: +-90 covers +-180
+        self.stick.set_pose(yaw_pose(sx, sy, TABLE_TOP_Z + STICK_HALF[2], stick_yaw))
 
     def cube_on(self, index: int) -> bool:
         cube = np.asarray(self.cube.pose.p)

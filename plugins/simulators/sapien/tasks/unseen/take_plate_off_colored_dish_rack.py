@@ -10,7 +10,7 @@ Task description:
 Randomisations:
     - rack centre x in [0.28, 0.38] m, y in [-0.15, 0.15] m, yaw in [-60, 60] degrees (RLBench's
       default is [-180, 180]; turned further, the demonstrator's grasp across the plate's rim
-      has no joint solution in about half the scenes);
+      has no joint solution in about half the scenes; simulator.scenes: rlbench draws [-180, 180] and redraws scenes the demonstrator fails);
     - which slot (left, middle, right) has which colour; the plate is always in the black one.
 
 Success conditions:
@@ -89,7 +89,7 @@ class TakePlateOffColoredDishRack(Task):
 
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x, y = rng.uniform(0.28, 0.38), rng.uniform(-0.15, 0.15)
-        yaw = np.deg2rad(rng.uniform(-60.0, 60.0))
+        yaw = np.deg2rad(rng.uniform(*self.span(ours=(-60.0, 60.0), rlbench=(-180.0, 180.0))))
         self.rack_pose = yaw_pose(x, y, TABLE_TOP_Z, yaw)
         self.rack.set_pose(self.rack_pose)
         order = rng.permutation(len(COLOURS))  # slot k (along the rack's y) gets colour order[k]

@@ -9,7 +9,7 @@ Task description:
 Randomisations:
     - computer centre x in [0.40, 0.48] m, y in [-0.15, 0.15] m, yaw in [-60, 60] degrees (RLBench's
       default is [-180, 180]; from about 75 degrees the ports face away and the stick is out of
-      the demonstrator's reach);
+      the demonstrator's reach; simulator.scenes: rlbench draws [-180, 180] and redraws scenes the demonstrator fails);
     - which of the two front ports (left or right of the centre) holds the stick.
 
 Success conditions:
@@ -92,7 +92,7 @@ class TakeUsbOutOfComputer(Task):
 
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         x, y = rng.uniform(0.40, 0.48), rng.uniform(-0.15, 0.15)
-        yaw = np.deg2rad(rng.uniform(-60.0, 60.0))
+        yaw = np.deg2rad(rng.uniform(*self.span(ours=(-60.0, 60.0), rlbench=(-180.0, 180.0))))
         self.port = int(rng.integers(2))
         self.computer_pose = yaw_pose(x, y, TABLE_TOP_Z, yaw)
         self.computer.set_pose(self.computer_pose)
