@@ -44,7 +44,7 @@ def test_an_unknown_scenes_value_is_one_sentence():
 RLBENCH_RANGE_TASKS = {
     "lamp_on", "lamp_off", "take_usb_out_of_computer", "take_plate_off_colored_dish_rack",
     "put_groceries_in_cupboard", "place_shape_in_shape_sorter", "beat_the_buzz",
-    "scoop_with_spatula", "reach_and_drag",
+    "scoop_with_spatula", "reach_and_drag", "place_cups",
 }
 
 

@@ -8,7 +8,9 @@ Task description:
 
 Randomisations:
     - how many mugs to hang (variation 0: 1; 1, 2 or 3 when variations are sampled);
-    - cup holder centre x in [0.30, 0.34] m, y in [-0.04, 0.04] m;
+    - cup holder centre x in [0.30, 0.34] m, y in [-0.04, 0.04] m, not turned (RLBench turns it
+      by [-90, 90] degrees; a spoke turned away from the robot is mostly out of reach, so
+      simulator.scenes: rlbench draws that and redraws scenes the demonstrator fails);
     - mug centres x in [0.00, 0.14] m, y in [-0.25, 0.25] m, at least 0.14 m apart, each with
       its handle pointing anywhere (yaw in [-180, 180] degrees).
 
@@ -82,7 +84,7 @@ class PlaceCups(Task):
         """Spoke k's frame: origin on the pole axis at the spoke's height, x along the spoke."""
         yaw, height, _ = SPOKES[k]
         tree = np.asarray(self.tree.pose.p)
-        turn = yaw_pose(tree[0], tree[1], tree[2] + height, yaw)
+        turn = yaw_pose(tree[0], tree[1], tree[2] + height, yaw + yaw_of(self.tree.pose))
         return turn * sapien.Pose(q=[np.cos(-SPOKE_TILT / 2), 0, np.sin(-SPOKE_TILT / 2), 0])
 
     def _build_tree(self) -> sapien.Entity:
@@ -122,6 +124,10 @@ class PlaceCups(Task):
                 positions.append(p)
         for mug, p in zip(self.mugs, positions):
             mug.set_pose(yaw_pose(p[0], p[1], TABLE_TOP_Z + 0.0005, rng.uniform(-np.pi, np.pi)))
+        # drawn last, so that `ours` (no turn) keeps the scenes it always had
+        tree_yaw = np.deg2rad(rng.uniform(*self.span(ours=(0.0, 0.0), rlbench=(-90.0, 90.0))))
+        tree = np.asarray(self.tree.pose.p)
+        self.tree.set_pose(yaw_pose(tree[0], tree[1], TABLE_TOP_Z, tree_yaw))
 
     def hanging(self, mug: int) -> bool:
         """Whether a spoke runs through the mug's handle and the mug is off the table."""
@@ -141,12 +147,17 @@ class PlaceCups(Task):
         return not (self.grasped() & {m.per_scene_id for m in self.mugs})
 
     def demonstration(self):
+        tree_yaw = yaw_of(self.tree.pose)
         by_y = sorted(range(len(self.mugs)), key=lambda i: -float(self.mugs[i].pose.p[1]))
-        plan = [(by_y[1], 1), (by_y[0], 0), (by_y[2], 2)]  # (mug, spoke): middle mug first
+        # the spoke that faces the robot most takes the middle mug, the others the mugs on their side
+        # (the tree unturned: towards the robot, left, right)
+        facing = max(range(len(SPOKES)), key=lambda k: -np.cos(SPOKES[k][0] + tree_yaw))
+        left, right = sorted((k for k in range(len(SPOKES)) if k != facing), key=lambda k: -np.sin(SPOKES[k][0] + tree_yaw))
+        plan = [(by_y[1], facing), (by_y[0], left), (by_y[2], right)]  # (mug, spoke): middle mug first
         for n, (mug_index, k) in enumerate(plan[: self.count]):
             mug = self.mugs[mug_index]
             psi0 = yaw_of(mug.pose)
-            psi_hang = SPOKES[k][2]
+            psi_hang = SPOKES[k][2] + tree_yaw
             # hand x along the handle (fingers clear of it); of the two ways, the wrist-friendlier
             a = min(
                 (0.0, np.pi), key=lambda a: max(abs(wrist(psi0 + a) - np.pi / 4), abs(wrist(psi_hang + a) - np.pi / 4))
