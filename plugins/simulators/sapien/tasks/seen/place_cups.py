@@ -152,7 +152,8 @@ class PlaceCups(Task):
         # the spoke that faces the robot most takes the middle mug, the others the mugs on their side
         # (the tree unturned: towards the robot, left, right)
         facing = max(range(len(SPOKES)), key=lambda k: -np.cos(SPOKES[k][0] + tree_yaw))
-        left, right = sorted((k for k in range(len(SPOKES)) if k != facing), key=lambda k: -np.sin(SPOKES[k][0] + tree_yaw))
+        others = (k for k in range(len(SPOKES)) if k != facing)
+        left, right = sorted(others, key=lambda k: -np.sin(SPOKES[k][0] + tree_yaw))
         plan = [(by_y[1], facing), (by_y[0], left), (by_y[2], right)]  # (mug, spoke): middle mug first
         for n, (mug_index, k) in enumerate(plan[: self.count]):
             mug = self.mugs[mug_index]

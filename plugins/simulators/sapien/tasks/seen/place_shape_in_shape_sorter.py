@@ -12,7 +12,8 @@ Randomisations:
       default is [-180, 180]; there the demonstrator fails 6 of 100 seeds, the cylinder and the
       cuboid jamming in their slots with the sorter turned by 60 to 120 degrees);
     - shape centres x in [0.00, 0.14] m, y in [-0.24, 0.24] m, at least 0.09 m apart,
-      yaw in [-45, 45] degrees (sorter and shapes: simulator.scenes: rlbench draws [-180, 180] and redraws scenes the demonstrator fails).
+      yaw in [-45, 45] degrees (for sorter and shapes, simulator.scenes: rlbench draws
+      [-180, 180] and redraws scenes the demonstrator fails).
 
 Success conditions:
     The named shape is inside the sorter: its centre within the sorter's walls and below its lid.
