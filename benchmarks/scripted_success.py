@@ -9,7 +9,8 @@ text grid, reset the same episode and execute them. Physics only (no rendering).
         [--scenes ours|rlbench] [--tasks open_drawer push_buttons ...]
 
 With --scenes rlbench each scene is redrawn until the demonstrator solves it; the draws
-column gives the mean number of draws per accepted scene and how many seeds had none solvable.
+column gives the mean number of draws per accepted scene and how many seeds had none solvable;
+s/demo then includes the redraws' demonstrations.
 """
 
 from __future__ import annotations
