@@ -61,6 +61,7 @@ class Export:
     max_attempts_factor: Any = field(default=MISSING, metadata=number(1))
     workers: Any = field(default=MISSING, metadata=rule(_workers, "'auto' or an integer >= 1"))
     cameras: List[str] = field(default=MISSING, metadata=rule(_names, "a non-empty list of distinct camera names"))
+    frames: str = field(default=MISSING, metadata=one_of("control", "key"))
     out_dir: str = MISSING
     repo_id: str = field(default=MISSING, metadata=rule(lambda v: v.count("/") == 1 and "" not in v.split("/"), "'owner/name'"))
     use_videos: bool = MISSING

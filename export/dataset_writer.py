@@ -22,12 +22,21 @@ def write_dataset(
     sizes: dict[str, tuple[int, int]],
     action_space: str,
     use_videos: bool,
+    frames: str = "control",
     vcodec: str,
     cache: str | Path,
     log=print,
 ) -> None:
     python = env_python(cache, log)
-    features = feats.features(sizes, action_space, use_videos)
+    import numpy as np
+
+    features = feats.features(sizes, action_space, use_videos, frames)
+    rows = None  # every staged row is a frame; key frames keep each key action's first step
+    if frames == "key":
+        rows = []
+        for path in episodes:
+            with np.load(path) as staged:
+                rows.append(feats.key_frame_rows(staged["key_action.index"].reshape(-1)))
     manifest_path = out_dir.with_name(f".{out_dir.name}.manifest.json")
 
     def write(tmp: Path) -> None:
@@ -38,11 +47,12 @@ def write_dataset(
             "fps": int(fps),
             "robot_type": ROBOT_TYPE,
             "features": features,
-            "columns": {key: feats.staged_column(key, action_space) for key in features},
+            "columns": {key: feats.staged_column(key, action_space, frames) for key in features},
             "use_videos": bool(use_videos),
             "vcodec": vcodec,
             "image_writer_threads": min(4, os.cpu_count() or 1),
             "episodes": [str(p) for p in episodes],
+            "rows": rows,
         }
         write_json_atomic(manifest_path, manifest)
         run_script(python, "lerobot_writer.py", str(manifest_path))

@@ -77,6 +77,7 @@ def run_export(cfg: DictConfig) -> dict:
     settings = {  # what staged episodes depend on: resuming with other values would mix them
         "simulator": {k: v for k, v in options.items() if k != "control_mode"},
         "seed": int(ex.seed),
+        "columns": 2,  # version of the staged arrays (2: with key_action.pose)
     }
     staging = Staging(out_dir.with_name(f"{out_dir.name}.staging"), settings)
     workers = resolve_workers(ex.workers)
@@ -92,12 +93,12 @@ def run_export(cfg: DictConfig) -> dict:
     start = time.perf_counter()
     write_dataset(
         out_dir, episodes, repo_id=str(ex.repo_id), fps=int(fps), sizes=sizes,
-        action_space=str(options["control_mode"]), use_videos=bool(ex.use_videos),
+        action_space=str(options["control_mode"]), use_videos=bool(ex.use_videos), frames=str(ex.frames),
         vcodec=str(ex.vcodec), cache=cfg.paths.cache,
     )
     written = time.perf_counter() - start
     size = dataset_size(out_dir)
-    print(f"\nLeRobot dataset: {out_dir}  ({len(episodes)} episodes, {size / 1e6:.1f} MB; "
+    print(f"\nLeRobot dataset: {out_dir}  ({len(episodes)} episodes of {ex.frames} frames, {size / 1e6:.1f} MB; "
           f"recorded in {recorded:.0f} s with {workers} worker{'s' if workers > 1 else ''}, written in {written:.0f} s)")
     print("| task | demos | attempts | scripted success % |\n|---|---:|---:|---:|")
     for task, (ok, attempts) in counts.items():

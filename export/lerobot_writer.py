@@ -6,7 +6,7 @@ standard library, numpy and lerobot. Usage: python lerobot_writer.py MANIFEST.js
 The manifest (written by xicm.export.dataset_writer) names the dataset (repo_id, root, fps,
 robot_type, features, use_videos, vcodec), which staged array fills each feature (`columns`),
 and lists the staged episodes, each an .npz of arrays with T rows and the episode's task text
-under "instruction".
+under "instruction"; `rows` (null: all) lists, per episode, the staged rows that become frames.
 """
 
 import json
@@ -34,11 +34,11 @@ def main(manifest_path: str) -> None:
         with np.load(path) as staged:
             columns = {key: staged[manifest["columns"][key]] for key in features}
             task = str(staged["instruction"])
-        steps = len(next(iter(columns.values())))
-        for t in range(steps):
+        rows = range(len(next(iter(columns.values())))) if manifest.get("rows") is None else manifest["rows"][n - 1]
+        for t in rows:
             dataset.add_frame({**{key: column[t] for key, column in columns.items()}, "task": task})
         dataset.save_episode()
-        print(f"lerobot_writer: episode {n}/{len(manifest['episodes'])} ({steps} frames)", flush=True)
+        print(f"lerobot_writer: episode {n}/{len(manifest['episodes'])} ({len(rows)} frames)", flush=True)
     dataset.finalize()
 
 

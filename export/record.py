@@ -45,15 +45,17 @@ def record_episode(simulator: Simulator, task: str, seed: int, episode: int, cam
 
 
 def key_action_columns(key_steps, key_actions, steps: int, workspace) -> dict[str, np.ndarray]:
-    """Per step: the index of the key action it works towards, that key action's 7 integers,
-    and 1 on the step whose end completes it (`key_steps[k]`, a control-step index)."""
+    """Per step: the index of the key action it works towards, that key action's pose and 7
+    integers, and 1 on the step whose end completes it (`key_steps[k]`, a control-step index)."""
     ends = np.asarray(key_steps, dtype=np.int64)
     index = np.minimum(np.searchsorted(ends, np.arange(steps), side="left"), len(ends) - 1)
     ints = np.array([encoding.action_to_ints(a, workspace) for a in key_actions], dtype=np.int64)
+    poses = np.array([[*a.position, *a.quat_wxyz, float(a.gripper_open)] for a in key_actions], dtype=np.float32)
     ends_here = np.zeros(steps, dtype=np.int64)
     ends_here[ends[ends < steps]] = 1
     return {
         "key_action.index": index.reshape(-1, 1),
+        "key_action.pose": poses[index],
         "key_action.ints": ints[index],
         "key_action.ends_here": ends_here.reshape(-1, 1),
     }

@@ -31,6 +31,7 @@ def _compose(*overrides):
         ("simulator.control_mode=ee_velocity", "simulator.control_mode must be one of ee_delta, ee_pose, joint_pos, joint_delta"),
         ("export.tasks=[close_jar,fly_to_moon]", "unknown task 'fly_to_moon' for simulator 'sapien'; available:"),
         ("export.repo_id=nameonly", "export.repo_id must be 'owner/name'"),
+        ("export.frames=keys", "export.frames must be one of control, key"),
     ],
 )
 def test_bad_input_is_one_sentence_before_anything_is_built(override, sentence):
@@ -61,6 +62,17 @@ def test_key_action_columns_name_the_key_action_each_step_works_towards():
     assert cols["key_action.ends_here"].ravel().tolist() == [0, 0, 1, 0, 1]
     assert cols["key_action.ints"][0].tolist() == [50, 50, 30, 36, 36, 36, 1]
     assert cols["key_action.ints"][4].tolist()[-1] == 0 and cols["key_action.ints"][4][0] == 60
+    assert cols["key_action.pose"][2].tolist() == [0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+    np.testing.assert_allclose(cols["key_action.pose"][3], [0.1, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0], atol=1e-7)
+    assert feats.key_frame_rows(cols["key_action.index"].ravel()) == [0, 3]
+
+
+def test_key_frame_features_carry_the_key_pose_and_no_per_step_columns():
+    f = feats.features({"front": (64, 64)}, "joint_pos", use_videos=False, frames="key")
+    assert f["action"]["names"] == feats.KEY_POSE_NAMES and f["key_action.pose"]["shape"] == [8]
+    assert not [k for k in f if k.startswith("action.")] and "key_action.ends_here" not in f
+    assert feats.staged_column("action", "joint_pos", "key") == "key_action.pose"
+    assert feats.staged_column("action", "joint_pos") == "action.joint_pos"
 
 
 def test_cli_bad_input_prints_one_sentence_and_no_traceback(tmp_path):
@@ -96,10 +108,10 @@ needs_lerobot = pytest.mark.skipif(_lerobot_env_missing() is not None, reason=st
 TASKS = ["close_jar", "push_buttons"]
 
 
-def _export_cfg(out_dir: Path):
+def _export_cfg(out_dir: Path, *more: str):
     return _compose(
         f"export.tasks=[{','.join(TASKS)}]", "export.demos_per_task=2", "export.workers=1",
-        "simulator.image_size=64", f"export.out_dir={out_dir}", "progress=false",
+        "simulator.image_size=64", f"export.out_dir={out_dir}", "progress=false", *more,
     )
 
 
@@ -201,6 +213,42 @@ def test_a_partial_export_resumes_recording_only_what_is_missing(exported, monke
     loaded = tmp_path / "loaded.npz"
     read_dataset(work, cfg.export.repo_id, loaded, cfg.paths.cache)
     assert int(np.load(loaded)["num_episodes"]) == 4
+
+
+@pytest.mark.slow
+@needs_lerobot
+def test_key_frames_of_the_same_staging_load_with_lerobot_and_replay_to_success(exported, monkeypatch, tmp_path):
+    """export.frames=key writes the staged demos again, without recording anything, as one frame
+    per key action whose `action` is the key pose; executing those poses solves each scene."""
+    import shutil
+
+    from xicm.core.plugins import get_registry
+    from xicm.export import record
+    from xicm.export.dataset_writer import read_dataset
+    from xicm.export.job import run_export
+
+    cfg, out_dir, _, _, staged = exported
+    work = tmp_path / "agnostos_seen_key"
+    shutil.copytree(out_dir.with_name(f"{out_dir.name}.staging"), work.with_name(f"{work.name}.staging"))
+    monkeypatch.setattr(record, "record_episode", lambda *a: pytest.fail("a staged episode was recorded again"))
+    assert run_export(_export_cfg(work, "export.frames=key"))["episodes"] == 4
+    loaded = tmp_path / "loaded.npz"
+    read_dataset(work, cfg.export.repo_id, loaded, cfg.paths.cache)
+    data = dict(np.load(loaded))
+    keys = [int(np.load(p)["key_action.index"].max()) + 1 for p in staged]
+    assert int(data["num_frames"]) == sum(keys) and json.loads(str(data["features"]))["action"]["names"] == feats.KEY_POSE_NAMES
+    episode_of = data["column.episode_index"].reshape(-1)
+    simulator = get_registry().create_simulator({"name": "sapien", "cameras": ["front"]})
+    try:
+        for n, path in enumerate(staged):
+            poses = data["column.action"][episode_of == n]
+            np.testing.assert_array_equal(poses, data["column.key_action.pose"][episode_of == n])
+            assert data["column.key_action.index"][episode_of == n].ravel().tolist() == list(range(keys[n]))
+            simulator.reset(path.parent.parent.name, int(cfg.export.seed), int(path.stem[1:]))
+            outcomes = [simulator.execute(KeyAction(tuple(p[:3]), tuple(p[3:7]), bool(p[7] >= 0.5))) for p in poses]
+            assert all(o.ok for o in outcomes) and outcomes[-1].success, (path, outcomes)
+    finally:
+        simulator.close()
 
 
 @pytest.mark.slow
