@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
+from websockets.protocol import State
 from websockets.sync.client import ClientConnection, connect
 
 from xicm.serving.wire import pack, unpack
@@ -38,8 +39,12 @@ class PolicyClient:
         self.close()
         headers = {"Authorization": f"Api-Key {self.api_key}"} if self.api_key else None
         try:
+            # no keepalive pings: each request has its own timeout_s, and a client whose main thread
+            # holds the GIL in the simulator (a first reset compiling shaders on a busy machine) could
+            # not read the pong in time and would drop a healthy connection
             self._ws = connect(
-                self.uri, compression=None, max_size=None, open_timeout=self.timeout_s, additional_headers=headers
+                self.uri, compression=None, max_size=None, open_timeout=self.timeout_s, additional_headers=headers,
+                ping_interval=None,
             )
             self.metadata = unpack(self._ws.recv(timeout=self.timeout_s))
         except (OSError, TimeoutError, InvalidHandshake, InvalidURI, ConnectionClosed) as exc:
@@ -50,8 +55,9 @@ class PolicyClient:
         return self.metadata
 
     def infer(self, obs: dict) -> Any:
-        """Send one observation and return the server's reply (connecting first when not connected)."""
-        if self._ws is None:
+        """Send one observation and return the server's reply (connecting first when not connected,
+        or when the server closed the idle connection: the request was not sent, so it is safe)."""
+        if self._ws is None or self._ws.state is not State.OPEN:
             self.connect()
         try:
             self._ws.send(pack(obs))

@@ -87,6 +87,25 @@ def test_a_slow_server_times_out_and_the_next_request_is_answered_fresh(server):
     np.testing.assert_array_equal(client.infer({"state": np.full(1, 3.0)})["actions"], [6.0])
 
 
+def test_a_connection_the_server_closed_while_idle_is_reopened_for_the_next_request():
+    """A restarted server (or one that dropped an idle client) costs no episode: the request was
+    never sent on the closed connection, so the client reconnects and sends it."""
+    first = PolicyServer(Doubler(), host="127.0.0.1", port=0).start()
+    port = first.port
+    client = PolicyClient(server_uri("127.0.0.1", port), timeout_s=10)
+    np.testing.assert_array_equal(client.infer({"state": np.ones(1)})["actions"], [2.0])
+    first.stop()
+    second = PolicyServer(Doubler(), host="127.0.0.1", port=port).start()
+    try:
+        deadline = time.monotonic() + 10
+        while client._ws.state.name == "OPEN" and time.monotonic() < deadline:  # the close frame arrives
+            time.sleep(0.05)
+        np.testing.assert_array_equal(client.infer({"state": np.full(1, 4.0)})["actions"], [8.0])
+    finally:
+        client.close()
+        second.stop()
+
+
 def test_nothing_listening_is_unreachable_in_one_sentence():
     port = free_port()  # free a moment ago: no server listens there
     with pytest.raises(ServerError, match=f"no policy server answered at ws://127.0.0.1:{port}") as err:
