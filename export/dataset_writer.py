@@ -6,6 +6,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
+
 from xicm.core.atomic import write_dir_atomic, write_json_atomic
 from xicm.export import features as feats
 from xicm.export.lerobot_env import check_ffmpeg, env_python, run_script
@@ -28,8 +30,6 @@ def write_dataset(
     log=print,
 ) -> None:
     python = env_python(cache, log)
-    import numpy as np
-
     features = feats.features(sizes, action_space, use_videos, frames)
     rows = None  # every staged row is a frame; key frames keep each key action's first step
     if frames == "key":
