@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import subprocess
 import sys
 from pathlib import Path
 
@@ -75,4 +74,5 @@ def main() -> None:
         cmd = resume_command(python, output, args.steps, extra)
     else:
         cmd = train_command(python, args.dataset.resolve(), output, args.steps or 5000, args.batch_size, args.device, extra)
-    sys.exit(subprocess.run(cmd, env={**os.environ, "HF_HUB_OFFLINE": "1", "WANDB_MODE": "disabled"}).returncode)
+    # become lerobot-train: stopping this process stops the training (no orphan left running)
+    os.execve(cmd[0], cmd, {**os.environ, "HF_HUB_OFFLINE": "1", "WANDB_MODE": "disabled"})

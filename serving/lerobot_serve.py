@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import os
 import subprocess
-import sys
 from pathlib import Path
 
 import xicm
@@ -42,11 +41,14 @@ def server_command(python: Path, checkpoint: str, host: str, port: int, action_s
     return cmd + (["--action-space", action_space] if action_space else [])
 
 
+def server_env(cache: Path) -> dict[str, str]:
+    return {**os.environ, "PYTHONPATH": str(package_shim(cache)), "HF_HUB_OFFLINE": "1"}
+
+
 def start(python: Path, cache: Path, checkpoint: str, host: str = "127.0.0.1", port: int = 8000,
           action_space: str | None = None, device: str = "cpu", max_batch: int = 1, **popen) -> subprocess.Popen:
-    env = {**os.environ, "PYTHONPATH": str(package_shim(cache)), "HF_HUB_OFFLINE": "1"}
     command = server_command(python, checkpoint, host, port, action_space, device, max_batch)
-    return subprocess.Popen(command, env=env, **popen)
+    return subprocess.Popen(command, env=server_env(cache), **popen)
 
 
 def main() -> None:
@@ -66,9 +68,8 @@ def main() -> None:
     if args.max_batch < 1:
         parser.exit(2, f"xicm-serve-lerobot: error: --max-batch must be >= 1, got {args.max_batch}\n")
     cache = Path(args.cache).expanduser()
-    server = start(env_python(cache), cache, args.checkpoint, args.host, args.port, args.action_space, args.device, args.max_batch)
-    try:
-        sys.exit(server.wait())
-    except KeyboardInterrupt:
-        server.terminate()
-        sys.exit(server.wait())
+    command = server_command(env_python(cache), args.checkpoint, args.host, args.port, args.action_space, args.device,
+                             args.max_batch)
+    # become the server: `kill PID` (or Ctrl-C) then stops the server itself, never leaving it
+    # orphaned on its port
+    os.execve(command[0], command, server_env(cache))

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from xicm.export.lerobot_env import env_python
-from xicm.serving.client import PolicyClient, server_uri
+from xicm.serving.client import PolicyClient, ServerError, server_uri
 from xicm.serving.lerobot_serve import start
 
 pytestmark = pytest.mark.slow
@@ -94,3 +94,31 @@ def test_batched_requests_get_the_one_at_a_time_chunks(tiny_act, served):
     np.testing.assert_allclose(together[0]["actions"], ref["chunk"].astype(np.float64), rtol=0, atol=1e-5)
     np.testing.assert_allclose(together[1]["actions"], alone, rtol=0, atol=1e-5)
     assert not np.allclose(together[0]["actions"], together[1]["actions"])  # two different answers, not one copied
+
+
+def test_stopping_xicm_serve_lerobot_stops_the_server_itself(tiny_act):
+    """The command becomes the server process: killing the PID a user started (`... &`, then
+    `kill %1`) frees the port instead of leaving a server orphaned on it."""
+    import signal
+    import sys
+
+    _, ckpt, _ = tiny_act
+    cmd = [str(Path(sys.executable).parent / "xicm-serve-lerobot"), str(ckpt), "--port", "0", "--cache", str(CACHE)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        for line in proc.stdout:
+            if "serving act" in line:
+                port = int(line.rsplit(":", 1)[1])
+                break
+        else:
+            pytest.fail("xicm-serve-lerobot exited before serving")
+        PolicyClient(server_uri("127.0.0.1", port), timeout_s=30).connect()  # it serves
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=30)
+        with pytest.raises(ServerError) as err:
+            PolicyClient(server_uri("127.0.0.1", port), timeout_s=5).connect()
+        assert err.value.kind == "server_unreachable"
+    finally:
+        proc.kill()
+        proc.wait(timeout=30)
+
