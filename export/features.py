@@ -30,7 +30,6 @@ ACTION_NAMES = {
 ACTION_SPACES = tuple(ACTION_NAMES)
 #: a key action as the key_pose action space of policy=remote sends it (world frame, metres)
 KEY_POSE_NAMES = ["x", "y", "z", "qw", "qx", "qy", "qz", "gripper"]
-FRAMES = ("control", "key")
 KEY_ACTION_INT_NAMES = ["x_voxel", "y_voxel", "z_voxel", "roll_bin", "pitch_bin", "yaw_bin", "gripper_open"]
 
 

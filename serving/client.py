@@ -39,9 +39,9 @@ class PolicyClient:
         self.close()
         headers = {"Authorization": f"Api-Key {self.api_key}"} if self.api_key else None
         try:
-            # no keepalive pings: each request has its own timeout_s, and a client whose main thread
-            # holds the GIL in the simulator (a first reset compiling shaders on a busy machine) could
-            # not read the pong in time and would drop a healthy connection
+            # no keepalive pings: each request has its own timeout_s, and while the main thread holds
+            # the GIL in the simulator (a first reset on a busy machine) a pong may be read too late,
+            # which would drop a healthy connection
             self._ws = connect(
                 self.uri, compression=None, max_size=None, open_timeout=self.timeout_s, additional_headers=headers,
                 ping_interval=None,
