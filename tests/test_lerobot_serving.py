@@ -28,18 +28,20 @@ def tiny_act(tmp_path_factory):
     return python, folder / "ckpt", np.load(folder / "ref.npz")
 
 
+def served_port(server: subprocess.Popen) -> int:
+    """The port a LeRobot server started with --port 0 says it serves on."""
+    for line in server.stdout:
+        if "serving act" in line:
+            return int(line.rsplit(":", 1)[1])
+    pytest.fail("the LeRobot server exited before serving")
+
+
 def serve(tiny_act, max_batch: int = 1):
     python, ckpt, _ = tiny_act
     server = start(python, CACHE, str(ckpt), port=0, action_space="joint_pos", max_batch=max_batch,
                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
-        for line in server.stdout:
-            if "serving act" in line:
-                port = int(line.rsplit(":", 1)[1])
-                break
-        else:
-            pytest.fail("the LeRobot server exited before serving")
-        yield port
+        yield served_port(server)
     finally:
         server.terminate()
         server.wait(timeout=30)
@@ -106,12 +108,7 @@ def test_stopping_xicm_serve_lerobot_stops_the_server_itself(tiny_act):
     cmd = [str(Path(sys.executable).parent / "xicm-serve-lerobot"), str(ckpt), "--port", "0", "--cache", str(CACHE)]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
-        for line in proc.stdout:
-            if "serving act" in line:
-                port = int(line.rsplit(":", 1)[1])
-                break
-        else:
-            pytest.fail("xicm-serve-lerobot exited before serving")
+        port = served_port(proc)
         PolicyClient(server_uri("127.0.0.1", port), timeout_s=30).connect()  # it serves
         proc.send_signal(signal.SIGTERM)
         proc.wait(timeout=30)
