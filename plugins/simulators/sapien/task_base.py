@@ -17,7 +17,7 @@ import sapien
 
 from xicm.core.types import KeyAction
 
-from .objects import ObjectSet
+from .objects import ObjectSet, yaw_pose
 from .robot import GRIPPER_DOWN_WXYZ
 from .scene import World
 
@@ -111,6 +111,20 @@ class Task(ABC):
     def span(self, ours: tuple[float, float], rlbench: tuple[float, float]) -> tuple[float, float]:
         """The (low, high) range in effect: this task's own, or RLBench's (simulator.scenes)."""
         return rlbench if self.ranges == "rlbench" else ours
+
+    def turn_base(self, rng: np.random.Generator, entities, pivot_xy) -> float:
+        """Under RLBench's ranges, turn `entities` together by a yaw drawn from ±180 degrees (the
+        default of RLBench's `base_rotation_bounds`) about the vertical axis through pivot_xy, as
+        RLBench turns a task's base with all its objects; returns the yaw (radians, 0 under ours).
+        Call it after every other draw of initialise(): under ours it draws nothing, so the
+        task's scenes under ours stay what they were."""
+        if self.ranges != "rlbench":
+            return 0.0
+        yaw = float(np.deg2rad(rng.uniform(-180.0, 180.0)))
+        turn = yaw_pose(pivot_xy[0], pivot_xy[1], 0.0, yaw) * sapien.Pose([-pivot_xy[0], -pivot_xy[1], 0.0])
+        for entity in entities:
+            entity.set_pose(turn * entity.pose)
+        return yaw
 
     def ordered(self, name: str, *conditions) -> bool:
         """Whether the `conditions` (callables) hold in order, as RLBench's ConditionSet with

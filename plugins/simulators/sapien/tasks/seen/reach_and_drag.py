@@ -14,7 +14,10 @@ Randomisations:
       yaw in [-45, 45] degrees (was [-10, 10]; RLBench's +-180, i.e. +-90 for the two-ended
       stick, failed 5 (attach) and 6 (friction) of 100 seeds, s2 s55 s65 s89 s94 (+ s24),
       all with the stick turned 50-82 degrees: not solved; simulator.scenes: rlbench draws
-      [-90, 90] and redraws scenes the demonstrator fails).
+      [-90, 90] and redraws scenes the demonstrator fails);
+    - simulator.scenes: rlbench also turns the whole layout (targets, cube and stick together)
+      by a yaw in [-180, 180] degrees about (0.14, 0) m, as RLBench turns the task's base
+      (its default bounds); draws the demonstrator fails are redrawn.
 
 Success conditions:
     The cube rests on the table (centre below 4.5 cm above the top) with its centre inside
@@ -40,6 +43,7 @@ CONTACT_AT = 0.05  # stick-local x of the point that pushes the cube
 HOVER = 0.12  # height of the carried stick's path above the table
 GRASP_Z = TABLE_TOP_Z + 0.015  # TCP height of the grasp (1.5 cm above the table)
 STEP = np.deg2rad(5.0)
+LAYOUT_CENTRE = (0.14, 0.0)  # the middle of targets, cube and stick: the layout turns about it
 
 
 def wrap(angle: float) -> float:
@@ -91,6 +95,7 @@ class ReachAndDrag(Task):
         sx, sy = rng.uniform(0.12, 0.18), side * rng.uniform(0.31, 0.35)
         stick_yaw = np.deg2rad(rng.uniform(*self.span(ours=(-45.0, 45.0), rlbench=(-90.0, 90.0))))  # two-ended: +-90 covers +-180
         self.stick.set_pose(yaw_pose(sx, sy, TABLE_TOP_Z + STICK_HALF[2], stick_yaw))
+        self.layout_yaw = self.turn_base(rng, [*self.targets, self.cube, self.stick], LAYOUT_CENTRE)
 
     def cube_on(self, index: int) -> bool:
         cube = np.asarray(self.cube.pose.p)

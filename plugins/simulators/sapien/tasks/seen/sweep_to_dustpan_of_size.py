@@ -12,7 +12,10 @@ Randomisations:
     - dirt heap centre x in [0.16, 0.22] m, y in [-0.03, 0.03] m, pieces spread +- 2.5 cm;
     - dustpan centres x within 2 cm of the heap's, |y| in [0.23, 0.26] m;
     - broom centre x in [-0.02, 0.03] m, y in [-0.06, 0.06] m, yaw in [-180, 180] degrees
-      (RLBench's default; was [-20, 20]).
+      (RLBench's default; was [-20, 20]);
+    - simulator.scenes: rlbench also turns the whole layout (dustpans, dirt and broom together)
+      by a yaw in [-180, 180] degrees about (0.10, 0) m, as RLBench turns the task's base (its
+      default bounds); draws the demonstrator fails are redrawn.
 
 Success conditions:
     All five pieces of dirt lie on the named dustpan's floor (between its walls).
@@ -36,6 +39,7 @@ HANDLE_HALF = (0.008, 0.008, 0.07)
 DIRT_HALF = 0.007
 N_DIRT = 5
 STEP = np.deg2rad(5.0)
+LAYOUT_CENTRE = (0.10, 0.0)  # between broom and heap: the layout turns about it
 
 
 def near(angle: float, ref: float, period: float) -> float:
@@ -106,6 +110,7 @@ class SweepToDustpanOfSize(Task):
             piece.set_pose(yaw_pose(p[0], p[1], TABLE_TOP_Z + DIRT_HALF, rng.uniform(-np.pi / 4, np.pi / 4)))
         bx, by = rng.uniform(-0.02, 0.03), rng.uniform(-0.06, 0.06)
         self.broom.set_pose(yaw_pose(bx, by, TABLE_TOP_Z + 0.0005, np.deg2rad(rng.uniform(-180.0, 180.0))))
+        self.layout_yaw = self.turn_base(rng, [*self.pans, *self.dirt, self.broom], LAYOUT_CENTRE)
 
     def dirt_in(self, index: int) -> bool:
         pan = self.pans[index].pose.inv()
@@ -128,23 +133,27 @@ class SweepToDustpanOfSize(Task):
         held = self.world.robot.tcp_pose().inv() * self.broom.pose  # the broom in the hand
         yield self.key(snap_to_grid(grasp + [0, 0, 0.05]), down_quat(theta_g), False)
 
-        side = self.sides[self.variation]  # +1: sweep towards +y
-        pan = np.asarray(self.pans[self.variation].pose.p)
-        dirt = np.array([np.asarray(d.pose.p) for d in self.dirt])
-        # head along world x: the hand yaw that turns the broom's head onto x
+        # the layout's own axes (world x and y unless simulator.scenes: rlbench turned it):
+        # the head lies along `across`, the sweep runs along `ahead`, towards the named dustpan
+        c, s = np.cos(self.layout_yaw), np.sin(self.layout_yaw)
+        across = np.array([c, s])
+        ahead = self.sides[self.variation] * np.array([-s, c])
+        pan = np.asarray(self.pans[self.variation].pose.p)[:2] @ ahead
+        dirt = np.array([np.asarray(d.pose.p)[:2] for d in self.dirt])
+        # head along `across`: the hand yaw that turns the broom's head onto it
         # hand-frame z points down, so the broom's world yaw is the hand yaw minus its in-hand yaw;
         # the head is symmetric: of the two hand yaws take the one nearer the grasp yaw
-        theta = float(np.round(near(yaw_of(held), theta_g, np.pi) / STEP) * STEP)
+        theta = float(np.round(near(yaw_of(held) + self.layout_yaw, theta_g, np.pi) / STEP) * STEP)
         q = down_quat(theta)
         rot = sapien.Pose(q=q).to_transformation_matrix()[:3, :3]
         offset = rot @ np.asarray(held.p)  # TCP -> broom origin (bottom centre of the head)
-        x = float(np.mean(dirt[:, 0]))
-        behind = (np.min(dirt[:, 1]) if side > 0 else np.max(dirt[:, 1])) - side * (HEAD_HALF[1] + DIRT_HALF + 0.025)
-        opening = pan[1] - side * PAN_HALF[1]
-        end = opening + side * (0.03 - HEAD_HALF[1])  # head's front face 3 cm into the dustpan
+        x = float(np.mean(dirt @ across))
+        behind = np.min(dirt @ ahead) - (HEAD_HALF[1] + DIRT_HALF + 0.025)
+        opening = pan - PAN_HALF[1]
+        end = opening + (0.03 - HEAD_HALF[1])  # head's front face 3 cm into the dustpan
         low = TABLE_TOP_Z + 0.003 - offset[2]  # head 3 mm above the table (-2 to 8 mm on the grid)
-        start = snap_to_grid([x - offset[0], behind - offset[1], low])
-        stop = snap_to_grid([x - offset[0], end - offset[1], low])
+        start = snap_to_grid([*(x * across + behind * ahead - offset[:2]), low])
+        stop = snap_to_grid([*(x * across + end * ahead - offset[:2]), low])
         yield self.key(snap_to_grid([start[0], start[1], low + 0.05]), q, False)
         yield self.key(start, q, False)
         yield self.key(stop, q, False)

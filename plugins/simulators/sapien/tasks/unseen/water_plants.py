@@ -17,7 +17,10 @@ Randomisations:
     - which side (left or right) the can stands on: centre x in [0.08, 0.16] m, |y| in
       [0.16, 0.22] m, yaw in [-180, 180] degrees (RLBench's default; was its spout towards the
       middle of the table +- 20 degrees);
-    - pot centre x in [0.26, 0.34] m, y in [-0.06, 0.06] m.
+    - pot centre x in [0.26, 0.34] m, y in [-0.06, 0.06] m;
+    - simulator.scenes: rlbench also turns can and pot together by a yaw in [-180, 180]
+      degrees about (0.22, 0) m, as RLBench turns the task's base (its default bounds); draws
+      the demonstrator fails are redrawn.
 
 Success conditions:
     As RLBench after the pour point is reached: all five drops lie inside the pot (inside its
@@ -53,6 +56,7 @@ POT_R, POT_H = 0.07, 0.09  # inner radius and height of the pot
 POUR_R, POUR_TOP = 0.05, 0.12  # pour point: radius about the pot's axis, height above its rim
 TILT = 70.0  # degrees the can is tipped forward to pour
 STEP = 5.0
+LAYOUT_CENTRE = (0.22, 0.0)  # between the can's and the pot's places: the layout turns about it
 
 
 def friendly(yaw_deg: float) -> float:
@@ -151,8 +155,7 @@ class WaterPlants(Task):
         side = 1.0 if rng.random() < 0.5 else -1.0
         cx, cy = rng.uniform(0.08, 0.16), side * rng.uniform(0.16, 0.22)
         yaw = -side * np.pi / 2 + np.deg2rad(rng.uniform(-180.0, 180.0))  # the spout any way (was towards the middle +-20)
-        self.can_start = yaw_pose(cx, cy, TABLE_TOP_Z + BODY_HALF[2], yaw)
-        self.can.set_pose(self.can_start)
+        self.can.set_pose(yaw_pose(cx, cy, TABLE_TOP_Z + BODY_HALF[2], yaw))
         self.pot.set_pose(sapien.Pose([rng.uniform(0.26, 0.34), rng.uniform(-0.06, 0.06), TABLE_TOP_Z]))
         for k, drop in enumerate(self.drops):  # parked, still, off the table until poured
             self.body(drop).kinematic = True
@@ -165,6 +168,7 @@ class WaterPlants(Task):
         self.poured = False
         # drawn last, so the scene's draws are those of the earlier versions
         self.drop_offsets = rng.normal(0.0, DROP_NOISE, size=(N_DROPS, 3))
+        self.layout_yaw = self.turn_base(rng, [self.can, self.pot], LAYOUT_CENTRE)
 
     @staticmethod
     def body(entity: sapien.Entity) -> sapien.physx.PhysxRigidDynamicComponent:
