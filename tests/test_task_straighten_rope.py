@@ -74,18 +74,22 @@ def test_straighten_rope_tail_held_up_over_its_zone_is_not_a_success(sim):
 
 
 def test_straighten_rope_ends_swapped_is_not_a_success(sim):
-    sim.reset_state(TASK, 5, 0)  # a seed where the demonstrator manages the swapped layout
+    # the rope laid straight by the demonstrator, then the zones exchanged: each end now lies in
+    # the other end's zone. (Driving the demonstrator into a swapped layout instead depended on
+    # the rope's chaotic physics: a seed that managed it alone failed after other tests ran.)
+    for seed in range(5):
+        sim.reset_state(TASK, seed, 0)
+        for action in sim.task.demonstration():
+            go(sim, action)
+        if sim.is_success():
+            break
+    else:
+        pytest.fail("the demonstrator straightened the rope on none of 5 seeds")
     task = sim.task
     head_zone, tail_zone = (z.pose for z in task.zones)
-    # swap the zones' roles for the demonstrator: it lays the head into the tail zone and back
     task.zones[0].set_pose(tail_zone)
     task.zones[1].set_pose(head_zone)
-    task.axis += np.pi
-    for action in task.demonstration():
-        go(sim, action)
-    assert sim.is_success()  # straight, with the ends in each other's zones
-    task.zones[0].set_pose(head_zone)
-    task.zones[1].set_pose(tail_zone)
+    assert task.end_in_zone(task.head, task.zones[1]) and task.end_in_zone(task.tail, task.zones[0])
     assert in_zones(task) == (False, False)
     assert not sim.is_success()
 
