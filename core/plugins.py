@@ -34,6 +34,7 @@ DEFAULT_PLUGINS = {
     "xicm_paper_prompt": "xicm.plugins.prompts.xicm_paper",
     "transformers_local": "xicm.plugins.llms.transformers_local",
     "openai_compatible": "xicm.plugins.llms.openai_compatible",
+    "llamacpp": "xicm.plugins.llms.llamacpp",
     "nearest_demo": "xicm.plugins.llms.nearest_demo",
     "xicm_policy": "xicm.plugins.policies.xicm",
     "oracle_policy": "xicm.plugins.policies.oracle",

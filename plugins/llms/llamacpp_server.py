@@ -1,0 +1,164 @@
+"""A `llama-server` (llama.cpp) owned by one Python process: built once per machine, started on
+a free loopback port, health-checked, stopped with the process.
+
+The binary: ``binary`` when given, else the cached build of scripts/build_llamacpp.sh
+(``<cache>/llamacpp/<version>/build/bin/llama-server``), built on first use under a file lock
+(about 10 min on 2 cores; a missing compiler or a failed build is one sentence naming the fix).
+
+Lifetime: the server is the child of the process that started it, asked to die with it
+(Linux ``PR_SET_PDEATHSIG``: a SIGKILLed ``xicm-eval`` leaves no server and no bound port), and
+stopped by `stop()`, at interpreter exit, or when the object is collected.
+"""
+
+from __future__ import annotations
+
+import atexit
+import ctypes
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import weakref
+from pathlib import Path
+
+from xicm.core.atomic import file_lock
+from xicm.core.errors import ConfigError
+from xicm.serving.ports import ServerNotReady, free_port, wait_http_ok
+
+LLAMACPP_VERSION = "11434"
+BUILD_SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "build_llamacpp.sh"
+STARTS = 3  # a port taken between choosing and binding it is retried with another
+
+
+def cached_binary() -> Path:
+    from xicm.plugins.llms.model_files import cache_root
+
+    return cache_root() / "llamacpp" / LLAMACPP_VERSION / "build" / "bin" / "llama-server"
+
+
+def llama_server_binary(binary: str | None = None, build: bool = True) -> Path:
+    """The llama-server to run: `binary`, else the cached build (built now when missing and `build`)."""
+    if binary:
+        path = Path(binary).expanduser()
+        if not (path.is_file() and os.access(path, os.X_OK)):
+            raise ConfigError(f"llm.binary {path} is not an executable file")
+        return path
+    path = cached_binary()
+    if path.is_file():
+        return path
+    if not build:
+        raise ConfigError(f"llama-server is not built yet ({path}); run: bash scripts/build_llamacpp.sh")
+    path.parent.parent.parent.mkdir(parents=True, exist_ok=True)
+    with file_lock(path.parent.parent.parent / ".build.lock"):
+        if not path.is_file():
+            _build(path)
+    return path
+
+
+def _build(path: Path) -> None:
+    missing = [tool for tool in ("cmake", "g++", "make") if shutil.which(tool) is None]
+    if missing:
+        raise ConfigError(
+            f"building llama-server needs {', '.join(missing)}, not found; install them "
+            "(Debian: apt-get install -y cmake build-essential) or set llm.binary to a llama-server"
+        )
+    print("[xicm] building llama.cpp's llama-server once for this machine (about 10 min on 2 cores)", file=sys.stderr)
+    log = path.parents[2] / "build.log"
+    with open(log, "w") as out:
+        done = subprocess.run(["bash", str(BUILD_SCRIPT)], stdout=out, stderr=subprocess.STDOUT)
+    if done.returncode != 0 or not path.is_file():
+        raise ConfigError(f"building llama-server failed (exit {done.returncode}); see {log}, or run bash {BUILD_SCRIPT}")
+
+
+def _die_with_parent() -> None:  # runs in the child between fork and exec
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+    if os.getppid() == 1:  # the parent died before prctl took effect
+        os._exit(1)
+
+
+class LlamaServer:
+    """One llama-server on 127.0.0.1 serving one GGUF with one slot (so consecutive requests
+    reuse the longest common prompt prefix in its KV cache)."""
+
+    def __init__(self, binary: Path, model: Path, threads: int, ctx_size: int, extra_args: list[str] | None = None,
+                 startup_timeout_s: float = 120.0):
+        self.binary, self.model = Path(binary), Path(model)
+        self.threads, self.ctx_size = int(threads), int(ctx_size)
+        self.extra_args = [str(a) for a in (extra_args or [])]
+        self.startup_timeout_s = float(startup_timeout_s)
+        self.process: subprocess.Popen | None = None
+        self.port: int | None = None
+        self._log = None
+        self._finalizer = None
+
+    @property
+    def base_url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    def argv(self, port: int) -> list[str]:
+        return [
+            str(self.binary), "--model", str(self.model), "--host", "127.0.0.1", "--port", str(port),
+            "--threads", str(self.threads), "--threads-batch", str(self.threads), "--ctx-size", str(self.ctx_size),
+            "--parallel", "1", "--jinja", "--no-webui", *self.extra_args,
+        ]
+
+    def start(self) -> LlamaServer:
+        if self.running():
+            return self
+        reason = "no output"
+        for _ in range(STARTS):
+            self._log = tempfile.NamedTemporaryFile(prefix="xicm-llama-server-", suffix=".log", delete=False)
+            port = free_port()
+            process = subprocess.Popen(self.argv(port), stdin=subprocess.DEVNULL, stdout=self._log,
+                                       stderr=subprocess.STDOUT, preexec_fn=_die_with_parent)
+            self.process, self.port = process, port
+            self._finalizer = weakref.finalize(self, _stop_process, process, self._log.name)
+            atexit.register(self._finalizer)
+            if self._wait_healthy():
+                return self
+            reason = self.log_tail() or f"not healthy within {self.startup_timeout_s:g} s"
+            self.stop()
+            if "bind" not in reason.lower():  # only a port taken meanwhile is worth another try
+                break
+        raise ConfigError(f"llama-server did not start on {self.model.name}: {reason}")
+
+    def _wait_healthy(self) -> bool:
+        try:  # /health answers 503 while the model loads
+            wait_http_ok(f"{self.base_url}/health", self.process, self.startup_timeout_s, poll_s=0.1)
+        except ServerNotReady:
+            return False
+        return True
+
+    def running(self) -> bool:
+        return self.process is not None and self.process.poll() is None
+
+    def log_tail(self, lines: int = 2) -> str:
+        try:
+            text = Path(self._log.name).read_text(errors="replace").strip().splitlines()
+        except (OSError, AttributeError):
+            return ""
+        useful = [line for line in text if "error" in line.lower()] or text
+        return " | ".join(line.strip() for line in useful[-lines:])[:300]
+
+    def stop(self) -> None:
+        if self._finalizer is not None:
+            self._finalizer()
+            atexit.unregister(self._finalizer)
+        self.process = None
+
+
+def _stop_process(process: subprocess.Popen, log: str) -> None:
+    if process.poll() is None:
+        process.terminate()
+        try:
+            process.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+    try:
+        os.unlink(log)
+    except OSError:
+        pass

@@ -1,0 +1,171 @@
+"""The llama.cpp engine (llm `llamacpp`) on a real llama-server and a tiny GGUF written by the
+`gguf` package (tests/tiny_gguf.py): the action grammar, the chat template, prefix reuse,
+repeatable replies, the prompt that does not fit, and the server's lifecycle (stop, and a
+SIGKILLed owner). The llama-server is the cached build (scripts/test.sh builds it)."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tiny_gguf import write_tiny_gguf
+from xicm.core.errors import ConfigError, LLMError
+from xicm.core.parsing import parse_actions
+from xicm.plugins.llms import llamacpp_server
+from xicm.plugins.llms.action_grammar import ACTIONS_REGEX
+from xicm.plugins.llms.llamacpp import LlamaCppLLM
+
+WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
+DEMOS = "".join(f"['instruction': task {i}, {{'cube': [{i}, 2, 3]}}]>[[{i}, 2, 3, 4, 5, 6, 1]], " for i in range(30))
+
+
+@pytest.fixture(scope="session")
+def server_binary() -> Path:
+    try:
+        return llamacpp_server.llama_server_binary(build=False)
+    except ConfigError as exc:
+        pytest.fail(f"{exc} (scripts/test.sh builds it before the tests)")
+
+
+@pytest.fixture(scope="session")
+def tiny_model(tmp_path_factory) -> Path:
+    return write_tiny_gguf(tmp_path_factory.mktemp("gguf") / "tiny.gguf")
+
+
+@pytest.fixture
+def make_llm(server_binary, tiny_model):
+    made = []
+
+    def make(**options):
+        llm = LlamaCppLLM(**{"model": str(tiny_model), "binary": str(server_binary), "threads": 1,
+                             "ctx_size": 4096, "chat_template": "raw", "max_tokens": 800, **options})
+        made.append(llm)
+        return llm
+
+    yield make
+    for llm in made:
+        llm.stop()
+
+
+def messages(query: str) -> list[dict[str, str]]:
+    return [{"role": "user", "content": DEMOS + query}]
+
+
+def listening(port: int) -> bool:
+    with socket.socket() as s:
+        return s.connect_ex(("127.0.0.1", port)) == 0
+
+
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with open(f"/proc/{pid}/stat") as f:  # a zombie has exited
+        return f.read().split(")")[-1].split()[0] != "Z"
+
+
+def test_the_grammar_holds_replies_to_the_action_list(make_llm):
+    free, constrained = make_llm(grammar="none"), make_llm(grammar="actions")
+    query = "['instruction': lift it, {'cube': [9, 9, 9]}]>"
+    reply = constrained.complete_messages(messages(query))
+    assert re.fullmatch(ACTIONS_REGEX, reply), reply
+    assert len(parse_actions(reply, WS)) >= 1
+    assert not re.fullmatch(ACTIONS_REGEX, free.complete_messages(messages(query)))  # random weights: noise
+
+
+def test_the_model_chat_template_is_applied(make_llm):
+    raw, chat = make_llm(max_tokens=4, grammar="none"), make_llm(max_tokens=4, grammar="none", chat_template="model")
+    raw.complete_messages([{"role": "user", "content": "abc"}])
+    chat.complete_messages([{"role": "user", "content": "abc"}])
+    # tiny_gguf's template writes "user: abc\nassistant:" around the content: 16 more characters
+    assert chat.last_usage["prompt_tokens"] - raw.last_usage["prompt_tokens"] == len("user: \nassistant:")
+
+
+def test_the_shared_prefix_is_reused_and_replies_repeat(make_llm):
+    llm = make_llm()
+    first = [llm.complete_messages(messages(f"['instruction': go {i}, {{'cube': [{i}, 1, 1]}}]>")) for i in range(3)]
+    pid = llm._server.process.pid
+    assert llm.last_usage["cache_n"] >= len(DEMOS) - 5  # only the query was prefilled again
+    assert llm.last_usage["prompt_n"] < 40
+    again = make_llm()  # a new server, a cold cache: the same replies
+    assert [again.complete_messages(messages(f"['instruction': go {i}, {{'cube': [{i}, 1, 1]}}]>")) for i in range(3)] == first
+    assert llm._server.process.pid == pid  # one server for all the calls
+
+
+def test_stop_ends_the_server_and_frees_its_port(make_llm):
+    llm = make_llm(max_tokens=8)
+    llm.complete_messages(messages(">"))
+    process, port = llm._server.process, llm._server.port
+    assert listening(port)
+    llm.stop()
+    assert process.poll() is not None and not listening(port)
+    llm.complete_messages(messages(">"))  # the next call starts another
+    assert llm._server.running()
+
+
+def test_a_sigkilled_owner_leaves_no_server_and_no_port(server_binary, tiny_model):
+    code = (
+        "import sys, time\n"
+        "from xicm.plugins.llms.llamacpp import LlamaCppLLM\n"
+        f"llm = LlamaCppLLM(model={str(tiny_model)!r}, binary={str(server_binary)!r}, threads=1, ctx_size=512, chat_template='raw')\n"
+        "llm.start()\n"
+        "print(llm._server.process.pid, llm._server.port, flush=True)\n"
+        "time.sleep(120)\n"
+    )
+    owner = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        pid, port = map(int, owner.stdout.readline().split())
+        assert alive(pid) and listening(port)
+        owner.send_signal(signal.SIGKILL)
+        owner.wait(timeout=10)
+        deadline = time.monotonic() + 10
+        while (alive(pid) or listening(port)) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not alive(pid) and not listening(port)
+    finally:
+        owner.kill()
+
+
+def test_a_prompt_that_does_not_fit_is_one_sentence(make_llm):
+    llm = make_llm(ctx_size=256)
+    with pytest.raises(LLMError, match=r"^the prompt does not fit llm.ctx_size=256 of tiny.gguf: it and max_tokens=800 need \d+ tokens; raise llm.ctx_size or use fewer demos \(policy.k\)$"):
+        llm.complete_messages(messages(">"))
+
+
+def test_a_missing_binary_or_model_is_one_sentence(tmp_path, monkeypatch, tiny_model):
+    with pytest.raises(ConfigError, match="llm.binary /nonexistent/llama-server is not an executable file"):
+        LlamaCppLLM(model=str(tiny_model), binary="/nonexistent/llama-server").start()
+    with pytest.raises(ConfigError, match="llm.model 'nope.gguf' is neither a catalogued model"):
+        LlamaCppLLM(model="nope.gguf").start()
+    monkeypatch.setenv("XICM_CACHE", str(tmp_path))
+    monkeypatch.setattr(llamacpp_server.shutil, "which", lambda tool: None if tool == "cmake" else "/usr/bin/" + tool)
+    with pytest.raises(ConfigError, match=r"building llama-server needs cmake, not found; install them \(Debian: apt-get install -y cmake"):
+        LlamaCppLLM(model=str(tiny_model)).start()
+
+
+def test_a_server_that_died_between_calls_is_started_again(make_llm, capsys):
+    llm = make_llm(max_tokens=8)
+    reply = llm.complete_messages(messages(">"))
+    pid = llm._server.process.pid
+    llm._server.process.kill()
+    llm._server.process.wait()
+    assert llm.complete_messages(messages(">")) == reply
+    assert llm._server.process.pid != pid
+    assert "llama-server exited" in capsys.readouterr().err
+
+
+def test_identity_names_model_and_decoding():
+    llm = LlamaCppLLM(model="qwen2_5_coder_0_5b", temperature=0.1, top_p=0.001, repeat_penalty=1.05, repeat_last_n=-1)
+    identity = llm.identity()
+    for part in ('"model": "qwen2_5_coder_0_5b"', '"repeat_last_n": -1', '"grammar": "actions"', '"seed": 0'):
+        assert part in identity
+    assert llm.deterministic
