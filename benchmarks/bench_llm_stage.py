@@ -11,6 +11,15 @@ same real X-ICM prompts (prints figures; not a test). Modes:
     grammar_fill     grammar_reduced that stops decoding at a repeated action and writes the
                      repeat on to the token budget (llm.on_repeated_action: fill)
     grammar_draft64  grammar_reduced checking up to 64 guessed tokens per pass (llm.draft_tokens)
+    llamacpp_gemma   the same Gemma 3 270M GGUF on llama.cpp (llm=gemma3_270m_llamacpp: greedy,
+                     action grammar, raw rendering, prefix reuse in llama-server's KV cache)
+    llamacpp_qwen0_5b / llamacpp_qwen1_5b
+                     Qwen2.5-Coder-0.5B / 1.5B-Instruct on llama.cpp (llm=qwen2_5_coder_0_5b /
+                     _1_5b: their chat template, action grammar, the paper's decoding values)
+
+llama.cpp modes also report prefill and decode tokens/s (llama-server's own timings) and the
+prompt tokens it reused; the share of replies identical between grammar_reduced and
+llamacpp_gemma compares the two engines on the same model (both greedy, both constrained).
 
 For each it reports LLM seconds per call and per episode, the parse_error rate (the project's
 parser, `xicm.core.parsing.parse_actions`) and whether the parsed actions agree with the first
@@ -102,6 +111,27 @@ MODES = {
 }
 
 
+#: llama.cpp modes: the alias in conf/llm/ whose options they run with
+LLAMACPP_MODES = {
+    "llamacpp_gemma": "gemma3_270m_llamacpp",
+    "llamacpp_qwen0_5b": "qwen2_5_coder_0_5b",
+    "llamacpp_qwen1_5b": "qwen2_5_coder_1_5b",
+}
+
+
+def llamacpp_llm(mode: str, max_new_tokens: int | None):
+    import yaml
+    from xicm.plugins.llms.llamacpp import LlamaCppLLM
+
+    conf = yaml.safe_load((ROOT / "conf" / "llm" / f"{LLAMACPP_MODES[mode]}.yaml").read_text())
+    conf.pop("name")
+    if max_new_tokens:
+        conf["max_tokens"] = max_new_tokens
+    llm = LlamaCppLLM(**conf)
+    llm.start()  # model fetch and server start are not part of the timed calls
+    return llm
+
+
 def collapse_repeats(actions):
     """Actions with each run of equal consecutive actions kept once (a repeat moves nothing)."""
     if not isinstance(actions, list):
@@ -121,7 +151,7 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=2)
     parser.add_argument("--calls", type=int, default=2, help="LLM calls per episode")
     parser.add_argument("--k", type=int, default=18, help="demos per prompt")
-    parser.add_argument("--modes", default=",".join(MODES), help=f"comma-separated, from: {', '.join(MODES)}")
+    parser.add_argument("--modes", default=",".join(MODES), help=f"comma-separated, from: {', '.join([*MODES, *LLAMACPP_MODES])}")
     parser.add_argument("--max-new-tokens", type=int, default=None, help="default: the config's")
     parser.add_argument("--draft-tokens", type=int, default=16)
     parser.add_argument("--torch-threads", type=int, default=None, help="default: torch's")
@@ -130,9 +160,9 @@ def main() -> None:
     parser.add_argument("--batch", action="store_true", help="also time complete_batch on the first calls")
     args = parser.parse_args()
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
-    unknown = [m for m in modes if m not in MODES]
+    unknown = [m for m in modes if m not in MODES and m not in LLAMACPP_MODES]
     if unknown:
-        parser.error(f"--modes: unknown {', '.join(unknown)}; available: {', '.join(MODES)}")
+        parser.error(f"--modes: unknown {', '.join(unknown)}; available: {', '.join([*MODES, *LLAMACPP_MODES])}")
 
     import torch
     from xicm.core.parsing import ParseError, parse_actions
@@ -142,9 +172,13 @@ def main() -> None:
     episodes = build_episodes(args.pool, args.episodes, args.calls, args.k, args.seed, args.shared_demos)
     options = llm_options(args.max_new_tokens)
     options["torch_threads"] = args.torch_threads
-    llms = {m: TransformersLocalLLM(**{**options, "draft_tokens": args.draft_tokens, **MODES[m]}) for m in modes}
+    llms = {m: TransformersLocalLLM(**{**options, "draft_tokens": args.draft_tokens, **MODES[m]}) for m in modes if m in MODES}
+    llms.update({m: llamacpp_llm(m, args.max_new_tokens) for m in modes if m in LLAMACPP_MODES})
+    llms = {m: llms[m] for m in modes}
     matchers = None
     for llm in llms.values():
+        if not isinstance(llm, TransformersLocalLLM):
+            continue
         llm.load()
         if llm.grammar != "none":  # one tokenizer conversion for all grammar modes
             if matchers is None:
@@ -158,34 +192,50 @@ def main() -> None:
     seconds = {m: [] for m in modes}  # (episode, s) per call
     parsed = {m: [] for m in modes}
     replies = {m: {} for m in modes}
+    server_timings = {m: [] for m in modes if m in LLAMACPP_MODES}
     for e, calls in enumerate(episodes):
         for c, prompt in enumerate(calls):
-            n_prompt = len(llms[modes[0]]._fit(llms[modes[0]].encode(prompt.messages)))
-            row = []
+            row, n_prompt = [], {}
             for m in modes:
                 reply, s = timed(llms[m].complete, prompt)
                 seconds[m].append((e, s))
                 parsed[m].append(parse_actions(reply, prompt.workspace))
                 replies[m][e, c] = reply
                 split = llms[m].last_call
-                row.append(f"{s:.1f}" + (f"({split.get('reused_tokens', 0)};{split.get('new_tokens', '-')})" if llms[m].fast else ""))
+                if m in LLAMACPP_MODES:
+                    server_timings[m].append(split)
+                    n_prompt[m] = split.get("prompt_tokens")
+                    row.append(f"{s:.1f}({split.get('cache_n', 0)};{split.get('predicted_n', '-')})")
+                else:
+                    n_prompt.setdefault("transformers", len(llms[m]._fit(llms[m].encode(prompt.messages))))
+                    row.append(f"{s:.1f}" + (f"({split.get('reused_tokens', 0)};{split.get('new_tokens', '-')})" if llms[m].fast else ""))
             print(f"{e} {c} {n_prompt} " + " ".join(row), flush=True)
             for m in modes:
                 print(f"    {m:16s} {replies[m][e, c]!r}")
     n_calls = len(parsed[modes[0]])
-    print(f"\n{n_calls} calls per mode; median s per call / per episode; ratio to 'fast' per episode; parse_error rate; "
+    print(f"\n{n_calls} calls per mode; median s per call / per episode; speed-up over grammar_reduced (else fast) per episode; parse_error rate; "
           f"parsed actions equal to {modes[0]}'s")
     totals = {m: [sum(s for ep, s in seconds[m] if ep == e) for e in range(args.episodes)] for m in modes}
     per_episode = {m: statistics.median(totals[m]) for m in modes}
     for m in modes:
         errors = sum(isinstance(p, ParseError) for p in parsed[m])
         agree = sum(a == b for a, b in zip(parsed[m], parsed[modes[0]]))
-        ratio = f"{per_episode['fast'] / per_episode[m]:.1f}x" if "fast" in per_episode else "-"
+        base = "grammar_reduced" if "grammar_reduced" in per_episode else "fast"
+        ratio = f"{per_episode[base] / per_episode[m]:.1f}x" if base in per_episode else "-"
         print(f"{m:16s} {statistics.median(s for _, s in seconds[m]):7.1f} s/call {per_episode[m]:7.1f} s/episode  "
               f"{ratio:>6s}  parse_error {errors}/{n_calls} ({errors / n_calls:.0%})  same actions {agree}/{n_calls}")
     if args.shared_demos and args.episodes > 1:
         print("episodes after the first (their demos' prefix cached by the first): median s/episode "
               + ", ".join(f"{m} {statistics.median(totals[m][1:]):.1f}" for m in modes))
+    for m, timings in server_timings.items():
+        prefill = sum(t.get("prompt_n", 0) for t in timings) / max(1e-9, sum(t.get("prompt_ms", 0) for t in timings) / 1000)
+        decode = sum(t.get("predicted_n", 0) for t in timings) / max(1e-9, sum(t.get("predicted_ms", 0) for t in timings) / 1000)
+        print(f"{m:16s} llama-server: prefill {prefill:.0f} tokens/s, decode {decode:.1f} tokens/s; prompt tokens "
+              f"{statistics.median(t.get('prompt_tokens', 0) for t in timings):.0f} (median), of which reused "
+              f"{statistics.median(t.get('cache_n', 0) for t in timings):.0f} (median)")
+    if "grammar_reduced" in modes and "llamacpp_gemma" in modes:
+        same = sum(replies["grammar_reduced"][key] == replies["llamacpp_gemma"][key] for key in replies["llamacpp_gemma"])
+        print(f"llamacpp_gemma replies identical to grammar_reduced (transformers, same GGUF): {same}/{n_calls}")
     if "grammar" in modes and "grammar_reduced" in modes:
         same = replies["grammar"] == replies["grammar_reduced"]
         print(f"grammar_reduced replies identical to grammar (full vocabulary): {same}")

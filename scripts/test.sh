@@ -3,5 +3,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
+# llm=llamacpp's tests run a real llama-server: built once per machine and cached (~10 min on 2 cores)
+PYTHON=.venv/bin/python bash scripts/build_llamacpp.sh >/dev/null
 export WANDB_MODE=disabled HF_HUB_OFFLINE=1 TRANSFORMERS_OFFLINE=1
 exec .venv/bin/python -m pytest -q "$@"

@@ -87,15 +87,15 @@ def test_the_model_chat_template_is_applied(make_llm):
     raw.complete_messages([{"role": "user", "content": "abc"}])
     chat.complete_messages([{"role": "user", "content": "abc"}])
     # tiny_gguf's template writes "user: abc\nassistant:" around the content: 16 more characters
-    assert chat.last_usage["prompt_tokens"] - raw.last_usage["prompt_tokens"] == len("user: \nassistant:")
+    assert chat.last_call["prompt_tokens"] - raw.last_call["prompt_tokens"] == len("user: \nassistant:")
 
 
 def test_the_shared_prefix_is_reused_and_replies_repeat(make_llm):
     llm = make_llm()
     first = [llm.complete_messages(messages(f"['instruction': go {i}, {{'cube': [{i}, 1, 1]}}]>")) for i in range(3)]
     pid = llm._server.process.pid
-    assert llm.last_usage["cache_n"] >= len(DEMOS) - 5  # only the query was prefilled again
-    assert llm.last_usage["prompt_n"] < 40
+    assert llm.last_call["cache_n"] >= len(DEMOS) - 5  # only the query was prefilled again
+    assert llm.last_call["prompt_n"] < 40
     again = make_llm()  # a new server, a cold cache: the same replies
     assert [again.complete_messages(messages(f"['instruction': go {i}, {{'cube': [{i}, 1, 1]}}]>")) for i in range(3)] == first
     assert llm._server.process.pid == pid  # one server for all the calls

@@ -36,6 +36,10 @@ startup_timeout_s (120), timeout_s (900)
     Seconds for the server to load the model, and for one reply.
 server_args (None)
     More llama-server arguments, as a list.
+repack (false)
+    llama.cpp's weight repacking at load. Off: on this project's Xeon VMs (AMX flags shown, a
+    -march=native build) the repacked weights take the AMX kernel, which crashed llama-server
+    with SIGSEGV in ggml_backend_amx_mul_mat on the first Q4_K_M matmul.
 """
 
 from __future__ import annotations
@@ -78,6 +82,7 @@ class LlamaCppLLM(LLM):
         startup_timeout_s: float = 120.0,
         timeout_s: float = 900.0,
         server_args: list[str] | None = None,
+        repack: bool = False,
     ):
         if not model:
             raise ConfigError("llm 'llamacpp' needs llm.model: a catalogued model name or a .gguf path")
@@ -88,16 +93,20 @@ class LlamaCppLLM(LLM):
         self.sampling = {"temperature": float(temperature), "top_p": float(top_p), "top_k": int(top_k),
                          "repeat_penalty": float(repeat_penalty), "repeat_last_n": int(repeat_last_n),
                          "seed": int(seed)}
+        self._request = dict(self.sampling)
+        if int(repeat_last_n) == -1:  # the server's field takes no -1 (its CLI does): the whole context
+            self._request["repeat_last_n"] = self.ctx_size
         if stop:
+            self._request["stop"] = [str(s) for s in stop]
             self.sampling["stop"] = [str(s) for s in stop]
         self.max_tokens = int(max_tokens)
         self.grammar = check_grammar(str(grammar))
         self.cache_dir, self.find_links = cache_dir, find_links
         self.startup_timeout_s, self.timeout_s = float(startup_timeout_s), float(timeout_s)
-        self.server_args = [str(a) for a in (server_args or [])]
+        self.server_args = [str(a) for a in (server_args or [])] + ([] if repack else ["--no-repack"])
         self._server = None
         self._client = None
-        self.last_usage: dict[str, Any] = {}  # token counts and timings of the last reply
+        self.last_call: dict[str, Any] = {}  # token counts and timings of the last reply
 
     # ------------------------------------------------------------------ lifecycle
     def model_path(self) -> Path:
@@ -124,7 +133,7 @@ class LlamaCppLLM(LLM):
         self._client = OpenAICompatibleLLM(
             model=path.name, base_url=self._server.base_url + "/v1", mode="chat" if chat else "completion",
             completion_format="plain" if chat else self.chat_template, temperature=None, top_p=None,
-            max_tokens=self.max_tokens, extra={**self.sampling, "cache_prompt": True}, timeout_s=self.timeout_s,
+            max_tokens=self.max_tokens, extra={**self._request, "cache_prompt": True}, timeout_s=self.timeout_s,
             retries=0, grammar=self.grammar, server="llamacpp",
         )
 
@@ -162,7 +171,7 @@ class LlamaCppLLM(LLM):
             if not self._server.running():
                 raise LLMError(f"llama-server stopped ({self._server.log_tail()}); the next call starts it again") from None
             raise
-        self.last_usage = _usage(self._client.last_reply)
+        self.last_call = _usage(self._client.last_reply)
         return text
 
     def _context_sentence(self, error: str) -> str:

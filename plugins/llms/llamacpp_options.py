@@ -30,3 +30,4 @@ class LlamaCppOptions:
     startup_timeout_s: float = field(default=120.0, metadata=above(0))
     timeout_s: float = field(default=900.0, metadata=above(0))
     server_args: Optional[List[str]] = None
+    repack: bool = False
