@@ -132,3 +132,26 @@ def test_train_dynamics_then_a_selection_sweep_shares_one_feature_cache(workdir)
     rows = [json.loads(p.read_text()) for p in sorted((work / "dyn").rglob("episodes.jsonl"))]
     assert [len(r["retrieved"]) for r in rows] == [1, 2]
     assert len(list((work / "cache" / "features").glob("dynamics*.npy"))) == 1  # computed once, reused by the second job
+
+
+def test_eval_with_llamacpp_runs_the_grammar_and_leaves_no_server(workdir, tmp_path):
+    """llm=llamacpp through xicm-eval on a tiny GGUF (tests/tiny_gguf.py): every reply is an
+    action list, and the server is gone when the command has exited."""
+    import re
+
+    from tiny_gguf import write_tiny_gguf
+    from xicm.plugins.llms.action_grammar import ACTIONS_REGEX
+    from xicm.plugins.llms.llamacpp_server import llama_server_binary
+
+    work, common = workdir
+    model = write_tiny_gguf(tmp_path / "tiny-e2e.gguf")
+    args = ["benchmark=smoke", "episodes=1", "policy.k=2", "llm=llamacpp", f"llm.model={model}",
+            f"llm.binary={llama_server_binary(build=False)}", "llm.chat_template=raw", "llm.threads=1",
+            "policy.max_llm_calls=2", "hydra.run.dir=llamacpp", *common]
+    _run("xicm-eval", *args, cwd=work)
+    rows = [json.loads(l) for l in (work / "llamacpp" / "episodes.jsonl").read_text().splitlines()]
+    assert len(rows) == 3 and all(r["responses"] for r in rows)
+    assert all(re.fullmatch(ACTIONS_REGEX, reply) for r in rows for reply in r["responses"])
+    assert not {r["error_kind"] for r in rows} & {"parse_error", "llm_error", "internal_error"}
+    left = subprocess.run(["pgrep", "-f", str(model)], capture_output=True, text=True)
+    assert left.stdout.strip() == "", "a llama-server outlived xicm-eval"

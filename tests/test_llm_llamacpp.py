@@ -93,12 +93,25 @@ def test_the_model_chat_template_is_applied(make_llm):
 def test_the_shared_prefix_is_reused_and_replies_repeat(make_llm):
     llm = make_llm()
     first = [llm.complete_messages(messages(f"['instruction': go {i}, {{'cube': [{i}, 1, 1]}}]>")) for i in range(3)]
-    pid = llm._server.process.pid
     assert llm.last_call["cache_n"] >= len(DEMOS) - 5  # only the query was prefilled again
     assert llm.last_call["prompt_n"] < 40
+    pid = llm._server.process.pid
+    llm.stop()
     again = make_llm()  # a new server, a cold cache: the same replies
     assert [again.complete_messages(messages(f"['instruction': go {i}, {{'cube': [{i}, 1, 1]}}]>")) for i in range(3)] == first
-    assert llm._server.process.pid == pid  # one server for all the calls
+    assert again._server.process.pid != pid
+
+
+def test_llms_of_one_process_share_one_server_started_from_any_thread(make_llm):
+    import threading
+
+    llms, replies = [make_llm(max_tokens=8), make_llm(max_tokens=8)], []
+    threads = [threading.Thread(target=lambda llm=llm: replies.append(llm.complete_messages(messages(">")))) for llm in llms]
+    for thread in threads:  # like envs=N: each slot thread makes its policy's first call, then ends
+        thread.start()
+        thread.join()
+    assert llms[0]._server is llms[1]._server and llms[0]._server.running()
+    assert replies[0] == replies[1]
 
 
 def test_stop_ends_the_server_and_frees_its_port(make_llm):

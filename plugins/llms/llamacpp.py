@@ -1,8 +1,8 @@
 """`llamacpp`: a GGUF model run by llama.cpp on the CPU, in a `llama-server` this process owns.
 
-Why a server the run starts rather than the in-process binding: docs/LLMS.md ("The llama.cpp
-engine"). One server per process that builds the LLM (each Ray actor and `envs=N` worker has its
-own), one slot, so consecutive prompts reuse their longest common prefix in the KV cache: the
+Why a server the run starts rather than the in-process binding: docs/DESIGN.md ("The llama.cpp
+engine"). One server per process and model settings (each Ray actor has its own; the policies of
+an `envs=N` run, all in the driver process, share one), one slot, so consecutive prompts reuse their longest common prefix in the KV cache: the
 X-ICM prompt puts the system message and the demos first, so the calls of an episode, and the
 episodes that share their demos, prefill only what changed.
 
@@ -123,12 +123,12 @@ class LlamaCppLLM(LLM):
         """Start the server (fetching the model and building llama-server first when needed)."""
         if self._server is not None and self._server.running():
             return
-        from xicm.plugins.llms.llamacpp_server import LlamaServer, llama_server_binary
+        from xicm.plugins.llms.llamacpp_server import llama_server_binary, shared_server
         from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
 
         path = self.model_path()
-        self._server = LlamaServer(llama_server_binary(self.binary), path, self.threads, self.ctx_size,
-                                   self.server_args, self.startup_timeout_s).start()
+        self._server = shared_server(llama_server_binary(self.binary), path, self.threads, self.ctx_size,
+                                     self.server_args, self.startup_timeout_s)
         chat = self.chat_template == "model"
         self._client = OpenAICompatibleLLM(
             model=path.name, base_url=self._server.base_url + "/v1", mode="chat" if chat else "completion",
@@ -138,6 +138,7 @@ class LlamaCppLLM(LLM):
         )
 
     def stop(self) -> None:
+        """Stop the server (LLMs of this process that share it start another at their next call)."""
         if self._server is not None:
             self._server.stop()
         self._server = self._client = None

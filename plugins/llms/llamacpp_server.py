@@ -6,8 +6,10 @@ The binary: ``binary`` when given, else the cached build of scripts/build_llamac
 (about 10 min on 2 cores; a missing compiler or a failed build is one sentence naming the fix).
 
 Lifetime: the server is the child of the process that started it, asked to die with it
-(Linux ``PR_SET_PDEATHSIG``: a SIGKILLed ``xicm-eval`` leaves no server and no bound port), and
-stopped by `stop()`, at interpreter exit, or when the object is collected.
+(Linux ``PR_SET_PDEATHSIG``, from a spawner thread that lives as long as the process: a
+SIGKILLed ``xicm-eval`` leaves no server and no bound port), and stopped by `stop()`, at
+interpreter exit, or when the object is collected. `shared_server` gives the LLMs of one
+process one server per model and settings.
 """
 
 from __future__ import annotations
@@ -19,7 +21,10 @@ import shutil
 import signal
 import subprocess
 import sys
+import queue
 import tempfile
+import threading
+import time
 import weakref
 from pathlib import Path
 
@@ -72,6 +77,59 @@ def _build(path: Path) -> None:
         raise ConfigError(f"building llama-server failed (exit {done.returncode}); see {log}, or run bash {BUILD_SCRIPT}")
 
 
+def _spawn(argv: list[str], log) -> subprocess.Popen:
+    """Popen from one long-lived thread: PR_SET_PDEATHSIG fires when the *thread* that forked
+    the child ends, so a server started from a short-lived thread (an `envs=N` slot) would die
+    with that thread instead of with the process."""
+    global _spawner
+    with _spawn_lock:
+        if _spawner is None:
+            _spawner = _Spawner()
+        return _spawner.spawn(argv, log)
+
+
+class _Spawner:
+    def __init__(self):
+        self._jobs: queue.Queue = queue.Queue()
+        threading.Thread(target=self._run, name="xicm-llama-server-spawner", daemon=True).start()
+
+    def _run(self) -> None:
+        while True:
+            argv, log, done = self._jobs.get()
+            try:
+                done.append(subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+                                             preexec_fn=_die_with_parent))
+            except BaseException as exc:  # noqa: BLE001 - handed back to the caller
+                done.append(exc)
+
+    def spawn(self, argv: list[str], log) -> subprocess.Popen:
+        done: list = []
+        self._jobs.put((argv, log, done))
+        while not done:
+            time.sleep(0.01)
+        if isinstance(done[0], BaseException):
+            raise done[0]
+        return done[0]
+
+
+_spawner: _Spawner | None = None
+_spawn_lock = threading.Lock()
+_shared: dict[tuple, "LlamaServer"] = {}
+_shared_lock = threading.Lock()
+
+
+def shared_server(binary: Path, model: Path, threads: int, ctx_size: int, extra_args: list[str],
+                  startup_timeout_s: float) -> "LlamaServer":
+    """This process's running server of that model and settings, started when there is none: the
+    policies of an `envs=N` run (one process, one policy per slot) share one engine."""
+    key = (str(binary), str(model), int(threads), int(ctx_size), tuple(extra_args))
+    with _shared_lock:
+        server = _shared.get(key)
+        if server is None or not server.running():
+            server = _shared[key] = LlamaServer(binary, model, threads, ctx_size, extra_args, startup_timeout_s).start()
+        return server
+
+
 def _die_with_parent() -> None:  # runs in the child between fork and exec
     libc = ctypes.CDLL(None, use_errno=True)
     libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
@@ -112,8 +170,7 @@ class LlamaServer:
         for _ in range(STARTS):
             self._log = tempfile.NamedTemporaryFile(prefix="xicm-llama-server-", suffix=".log", delete=False)
             port = free_port()
-            process = subprocess.Popen(self.argv(port), stdin=subprocess.DEVNULL, stdout=self._log,
-                                       stderr=subprocess.STDOUT, preexec_fn=_die_with_parent)
+            process = _spawn(self.argv(port), self._log)
             self.process, self.port = process, port
             self._finalizer = weakref.finalize(self, _stop_process, process, self._log.name)
             atexit.register(self._finalizer)
