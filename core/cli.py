@@ -139,6 +139,10 @@ def report_parser() -> argparse.ArgumentParser:
         "episodes with demos, transcripts and videos) and, over several runs, sweep.html",
     )
     parser.add_argument(
+        "--paired", action="store_true",
+        help="instead, compare two runs DIR_A DIR_B on the episodes both hold: per-task counts and the exact McNemar test",
+    )
+    parser.add_argument(
         "--pool", metavar="PATH",
         help="with --html: the demonstration pool to take retrieved demos' first frames from "
         "(default: the run's pool_path, as recorded or relative to the run folder)",
@@ -171,12 +175,28 @@ def _write_html(run_dir: Path, args: argparse.Namespace) -> None:
     print(f"written: {path} ({path.stat().st_size / 1e6:.2f} MB)\n")
 
 
+def _print_paired(dirs: list[str]) -> None:
+    from xicm.core.paired import paired_comparison, paired_markdown
+    from xicm.core.run_dir import RunDir
+
+    if len(dirs) != 2:
+        _fail(XicmError(f"--paired compares two runs, not {len(dirs)}: xicm-report --paired RUN_A RUN_B"))
+    try:
+        rows = [RunDir(Path(d)).rows(RunDir(Path(d)).read_meta()) for d in dirs]
+    except (XicmError, OSError) as exc:
+        _fail(XicmError(str(exc)))
+    print(paired_markdown(paired_comparison(*rows), dirs[0], dirs[1]))
+
+
 def report_main(argv: list[str] | None = None) -> None:
     """xicm-report DIR [DIR ...] [--html] | --merge OUT_DIR RUN_DIR [RUN_DIR ...] (see report_parser)."""
     from xicm.core.report import markdown_table, media_lines, summarise
     from xicm.core.run_dir import EPISODES, META, REPORT_FILES, RunDir, find_runs
 
     args = report_parser().parse_args(argv)
+    if args.paired:
+        _print_paired(args.dirs)
+        return
     if args.merge is not None:
         from xicm.core.merge import merge_runs
 

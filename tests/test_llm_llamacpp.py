@@ -114,6 +114,13 @@ def test_llms_of_one_process_share_one_server_started_from_any_thread(make_llm):
     assert replies[0] == replies[1]
 
 
+def test_speculative_decoding_leaves_the_replies_as_they_are(make_llm):
+    queries = [f"['instruction': go {i}, {{'cube': [{i}, 1, 1]}}]>" for i in range(3)]
+    plain, drafted = make_llm(speculative="none"), make_llm(speculative="ngram-mod")
+    assert [drafted.complete_messages(messages(q)) for q in queries] == [plain.complete_messages(messages(q)) for q in queries]
+    assert plain._server is not drafted._server and "--spec-type" in drafted._server.argv(0)
+
+
 def test_stop_ends_the_server_and_frees_its_port(make_llm):
     llm = make_llm(max_tokens=8)
     llm.complete_messages(messages(">"))

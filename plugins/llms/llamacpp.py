@@ -36,6 +36,11 @@ startup_timeout_s (120), timeout_s (900)
     Seconds for the server to load the model, and for one reply.
 server_args (None)
     More llama-server arguments, as a list.
+speculative ("ngram-mod"), draft_max (16)
+    llama.cpp's speculative decoding from n-grams of the context (``none``, ``ngram-simple``,
+    ``ngram-mod``): up to draft_max guessed tokens checked in one pass. X-ICM replies copy
+    stretches of the demos and repeat actions, so guesses often hold; greedy replies are the
+    same as without it (tested), so it is not part of identity(). Measured in docs/DESIGN.md.
 repack (false)
     llama.cpp's weight repacking at load. Off: on this project's Xeon VMs (AMX flags shown, a
     -march=native build) the repacked weights take the AMX kernel, which crashed llama-server
@@ -83,6 +88,8 @@ class LlamaCppLLM(LLM):
         timeout_s: float = 900.0,
         server_args: list[str] | None = None,
         repack: bool = False,
+        speculative: str = "ngram-mod",
+        draft_max: int = 16,
     ):
         if not model:
             raise ConfigError("llm 'llamacpp' needs llm.model: a catalogued model name or a .gguf path")
@@ -104,6 +111,8 @@ class LlamaCppLLM(LLM):
         self.cache_dir, self.find_links = cache_dir, find_links
         self.startup_timeout_s, self.timeout_s = float(startup_timeout_s), float(timeout_s)
         self.server_args = [str(a) for a in (server_args or [])] + ([] if repack else ["--no-repack"])
+        if speculative != "none":  # drafts are verified by the model: the replies do not change
+            self.server_args += ["--spec-type", speculative, "--spec-draft-n-max", str(int(draft_max))]
         self._server = None
         self._client = None
         self.last_call: dict[str, Any] = {}  # token counts and timings of the last reply

@@ -31,3 +31,5 @@ class LlamaCppOptions:
     timeout_s: float = field(default=900.0, metadata=above(0))
     server_args: Optional[List[str]] = None
     repack: bool = False
+    speculative: str = field(default="ngram-mod", metadata=one_of("none", "ngram-simple", "ngram-mod"))
+    draft_max: int = field(default=16, metadata=at_least(1))

@@ -1,0 +1,27 @@
+"""The paired comparison of two runs (xicm-report --paired): counts on common episodes, McNemar."""
+
+import pytest
+from scipy.stats import binomtest
+
+from xicm.core.paired import mcnemar_exact, paired_comparison, paired_markdown
+
+
+def row(task, seed, episode, success):
+    return {"task": task, "seed": seed, "episode": episode, "success": success}
+
+
+@pytest.mark.parametrize("only_a,only_b", [(0, 0), (1, 0), (7, 2), (3, 12), (20, 20), (40, 11)])
+def test_mcnemar_is_scipys_exact_binomial_test(only_a, only_b):
+    expected = 1.0 if only_a + only_b == 0 else binomtest(only_a, only_a + only_b, 0.5).pvalue
+    assert mcnemar_exact(only_a, only_b) == pytest.approx(expected)
+
+
+def test_only_common_episodes_are_compared_per_task():
+    a = [row("t1", 0, 0, True), row("t1", 0, 1, True), row("t2", 0, 0, False), row("t2", 1, 0, True)]
+    b = [row("t1", 0, 0, True), row("t1", 0, 1, False), row("t2", 0, 0, True), row("t3", 0, 0, True)]
+    result = paired_comparison(a, b)
+    assert (result["n"], result["a"], result["b"], result["only_a"], result["only_b"]) == (3, 2, 2, 1, 1)
+    assert result["tasks"]["t1"] == {"n": 2, "a": 2, "b": 1, "only_a": 1, "only_b": 0}
+    assert (result["only_in_a"], result["only_in_b"]) == (1, 1)
+    text = paired_markdown(result, "A", "B")
+    assert "| **all** | 3 | 2 (66.7 %) | 2 (66.7 %) | 1 | 1 |" in text and "p = 1 (two-sided)" in text
