@@ -88,7 +88,7 @@ def build_episodes(pool_path, n_episodes: int, calls_per_episode: int, k: int, s
     return episodes
 
 
-def llm_options(max_new_tokens: int | None) -> dict:
+def gemma_options(max_new_tokens: int | None) -> dict:
     """The embedded model's decoding options from conf/llm/gemma3_270m.yaml."""
     import yaml
 
@@ -119,12 +119,22 @@ LLAMACPP_MODES = {
 }
 
 
+def llm_options(alias: str) -> dict:
+    """The options of `llm=<alias>` as a run composes them (the alias's defaults included)."""
+    from hydra import compose, initialize_config_module
+    from omegaconf import OmegaConf
+
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        cfg = compose(config_name="config", overrides=[f"llm={alias}"])
+    options = OmegaConf.to_container(cfg.llm, resolve=True)
+    options.pop("name")
+    return options
+
+
 def llamacpp_llm(mode: str, max_new_tokens: int | None):
-    import yaml
     from xicm.plugins.llms.llamacpp import LlamaCppLLM
 
-    conf = yaml.safe_load((ROOT / "conf" / "llm" / f"{LLAMACPP_MODES[mode]}.yaml").read_text())
-    conf.pop("name")
+    conf = llm_options(LLAMACPP_MODES[mode])
     if max_new_tokens:
         conf["max_tokens"] = max_new_tokens
     llm = LlamaCppLLM(**conf)
@@ -170,7 +180,7 @@ def main() -> None:
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
 
     episodes = build_episodes(args.pool, args.episodes, args.calls, args.k, args.seed, args.shared_demos)
-    options = llm_options(args.max_new_tokens)
+    options = gemma_options(args.max_new_tokens)
     options["torch_threads"] = args.torch_threads
     llms = {m: TransformersLocalLLM(**{**options, "draft_tokens": args.draft_tokens, **MODES[m]}) for m in modes if m in MODES}
     llms.update({m: llamacpp_llm(m, args.max_new_tokens) for m in modes if m in LLAMACPP_MODES})

@@ -62,10 +62,10 @@ def main() -> None:
     parser.add_argument("--settings", nargs="+", default=["paper:", "no_penalty:repeat_penalty=1.0,repeat_last_n=64"])
     args = parser.parse_args()
 
+    from bench_llm_stage import llm_options
     from xicm.plugins.llms.llamacpp import LlamaCppLLM
 
-    conf = yaml.safe_load((ROOT / "conf" / "llm" / f"{args.llm}.yaml").read_text())
-    conf = {k: v for k, v in conf.items() if k not in ("name", "defaults")}
+    conf = llm_options(args.llm)
     settings = [parse_setting(s) for s in args.settings]
     prompts = recorded_prompts(args.run_dir, args.calls)
     llms = {name: LlamaCppLLM(**{**conf, **options}) for name, options in settings}
@@ -78,15 +78,17 @@ def main() -> None:
         for name, llm in llms.items():  # settings alternate call by call: load hits all alike
             t0 = time.perf_counter()
             reply = llm.complete_messages(messages)
-            figures[name].append({**reply_figures(reply), "s": time.perf_counter() - t0,
+            figures[name].append({**reply_figures(reply), "s": time.perf_counter() - t0, "reply": reply,
                                   "tokens": llm.last_call.get("completion_tokens", 0)})
         print(f"{i}: " + "  ".join(f"{n} {f[-1]['actions']}a run{f[-1]['longest_run']} "
                                     f"{'closed' if f[-1]['closed'] else 'CUT'} {f[-1]['s']:.1f}s" for n, f in figures.items()),
               flush=True)
-    print("\nsetting        closed  cut-at-budget  median actions  median longest run  median distinct  median s/call  median tokens")
+    first = next(iter(figures))
+    print("\nsetting        same reply as " + first + "  closed  cut-at-budget  median actions  median longest run  median distinct  median s/call  median tokens")
     for name, rows in figures.items():
         closed = sum(r["closed"] for r in rows)
-        print(f"{name:14s} {closed:3d}/{len(rows)}  {len(rows) - closed:3d}/{len(rows)}  "
+        same = sum(r["reply"] == f["reply"] for r, f in zip(rows, figures[first]))
+        print(f"{name:14s} {same:3d}/{len(rows)}  {closed:3d}/{len(rows)}  {len(rows) - closed:3d}/{len(rows)}  "
               f"{statistics.median(r['actions'] for r in rows):14.0f}  {statistics.median(r['longest_run'] for r in rows):18.0f}  "
               f"{statistics.median(r['distinct'] for r in rows):15.0f}  {statistics.median(r['s'] for r in rows):13.1f}  "
               f"{statistics.median(r['tokens'] for r in rows):13.0f}")
