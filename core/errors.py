@@ -46,7 +46,7 @@ ERROR_KINDS = (
     "server_unreachable",  # policy=remote: no policy server answered, or the link was lost
     "server_timeout",  # policy=remote: the server did not answer within policy.timeout_s
     "server_error",  # policy=remote: the server failed to answer the request
-    "bad_reply",  # policy=remote: the reply had no actions, a wrong shape, or NaN/inf
+    "bad_reply",  # policy=remote: the reply could not be decoded (serving/wire.py), had no actions, a wrong shape, or NaN/inf
     "bad_observation",  # policy=remote: the observation lacks what the mapping sends (a camera, a state field)
     "internal_error",  # an unexpected exception in our own code (a bug: please report it)
 )

@@ -5,18 +5,20 @@ from __future__ import annotations
 from typing import Any
 
 from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
+from websockets.frames import CloseCode
 from websockets.protocol import State
 from websockets.sync.client import ClientConnection, connect
 
-from xicm.serving.wire import pack, unpack
+from xicm.serving.wire import MAX_FRAME_BYTES, WireError, pack, unpack
 
 
 class ServerError(Exception):
-    """The server could not be reached, answered late, or answered with an error."""
+    """The server could not be reached, answered late, answered with an error, or sent a frame
+    that cannot be decoded."""
 
     def __init__(self, kind: str, message: str):
         super().__init__(message)
-        self.kind = kind  # "server_unreachable" | "server_timeout" | "server_error"
+        self.kind = kind  # "server_unreachable" | "server_timeout" | "server_error" | "bad_reply"
 
 
 def server_uri(host: str, port: int | None = None) -> str:
@@ -27,10 +29,12 @@ def server_uri(host: str, port: int | None = None) -> str:
 class PolicyClient:
     """One connection to a policy server: `metadata` (sent by the server at connect) and `infer`."""
 
-    def __init__(self, uri: str, timeout_s: float = 30.0, api_key: str | None = None):
+    def __init__(self, uri: str, timeout_s: float = 30.0, api_key: str | None = None,
+                 max_frame_bytes: int = MAX_FRAME_BYTES):
         self.uri = uri
         self.timeout_s = float(timeout_s)
         self.api_key = api_key
+        self.max_frame_bytes = int(max_frame_bytes)  # a bigger reply closes the connection (bad_reply)
         self.metadata: dict = {}
         self._ws: ClientConnection | None = None
 
@@ -43,13 +47,18 @@ class PolicyClient:
             # the GIL in the simulator (a first reset on a busy machine) a pong may be read too late,
             # which would drop a healthy connection
             self._ws = connect(
-                self.uri, compression=None, max_size=None, open_timeout=self.timeout_s, additional_headers=headers,
-                ping_interval=None,
+                self.uri, compression=None, max_size=self.max_frame_bytes, open_timeout=self.timeout_s,
+                additional_headers=headers, ping_interval=None,
             )
-            self.metadata = unpack(self._ws.recv(timeout=self.timeout_s))
+            frame = self._ws.recv(timeout=self.timeout_s)
         except (OSError, TimeoutError, InvalidHandshake, InvalidURI, ConnectionClosed) as exc:
             self._ws = None
             raise ServerError("server_unreachable", f"no policy server answered at {self.uri} ({type(exc).__name__}: {exc})") from exc
+        try:
+            self.metadata = unpack(frame, max_frame_bytes=self.max_frame_bytes)
+        except WireError as exc:
+            self.metadata = {}
+            raise ServerError("server_error", f"the server at {self.uri} sent metadata that cannot be decoded ({exc})") from exc
         if not isinstance(self.metadata, dict):
             raise ServerError("server_error", f"the server at {self.uri} sent metadata that is not a map")
         return self.metadata
@@ -67,10 +76,15 @@ class PolicyClient:
             raise ServerError("server_timeout", f"the policy server at {self.uri} did not answer within {self.timeout_s:g} s") from exc
         except (ConnectionClosed, OSError) as exc:
             self.close()
+            if isinstance(exc, ConnectionClosed) and exc.sent is not None and exc.sent.code == CloseCode.MESSAGE_TOO_BIG:
+                raise ServerError("bad_reply", f"the policy server at {self.uri} sent a reply over the cap of {self.max_frame_bytes} bytes") from exc
             raise ServerError("server_unreachable", f"the connection to {self.uri} was lost ({type(exc).__name__})") from exc
         if isinstance(reply, str):
             raise ServerError("server_error", f"the policy server at {self.uri} failed: {reply.strip()[:300]}")
-        return unpack(reply)
+        try:
+            return unpack(reply, max_frame_bytes=self.max_frame_bytes)
+        except WireError as exc:  # the connection stays in step: this reply answered this request
+            raise ServerError("bad_reply", f"the policy server at {self.uri} sent a reply that cannot be decoded ({exc})") from exc
 
     def close(self) -> None:
         if self._ws is not None:

@@ -2,8 +2,10 @@
 
 At connect the server sends its metadata; then every binary frame from the client is one
 observation and is answered with one binary frame (the policy's output dict, usually
-{"actions": array}). A failing `infer` is answered with a text frame holding one sentence and
-the connection stays open (openpi's own server closes it). `GET /healthz` answers 200 "OK".
+{"actions": array}). A failing `infer`, or a frame that cannot be decoded safely (serving/wire.py),
+is answered with a text frame holding one sentence and the connection stays open (openpi's own
+server closes it); a frame over `max_frame_bytes` closes only its connection (close code 1009).
+`GET /healthz` answers 200 "OK".
 A stateless policy with `infer_batch(observations) -> replies` may be served with `max_batch` > 1:
 requests from several connections are then answered together (serving/batching.py).
 """
@@ -20,7 +22,7 @@ from websockets.asyncio.server import Request, Response, ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
 
 from xicm.serving.batching import RequestBatcher
-from xicm.serving.wire import pack, unpack
+from xicm.serving.wire import MAX_FRAME_BYTES, WireError, pack, unpack
 
 log = logging.getLogger(__name__)
 
@@ -59,8 +61,10 @@ class PolicyServer:
     """
 
     def __init__(self, policy: InferencePolicy | Sessions, host: str = "127.0.0.1", port: int = 8000,
-                 metadata: dict | None = None, max_batch: int = 1, batch_wait_ms: float = 5.0):
+                 metadata: dict | None = None, max_batch: int = 1, batch_wait_ms: float = 5.0,
+                 max_frame_bytes: int = MAX_FRAME_BYTES):
         self.policy = policy
+        self.max_frame_bytes = int(max_frame_bytes)
         self.host = host
         self.port = int(port)
         self.metadata = dict(metadata or {})
@@ -97,9 +101,14 @@ class PolicyServer:
             try:
                 if isinstance(frame, str):
                     raise TypeError("the observation frame must be binary msgpack, got text")
-                obs = unpack(frame)
+                obs = unpack(frame, max_frame_bytes=self.max_frame_bytes)
                 if not isinstance(obs, dict):
                     raise TypeError(f"the observation must be a map, got {type(obs).__name__}")
+            except (TypeError, WireError) as exc:  # a bad frame costs only its answer
+                log.warning("bad frame from %s: %s: %s", ws.remote_address, type(exc).__name__, exc)
+                await ws.send(f"{type(exc).__name__}: {exc}")
+                continue
+            try:
                 reply = await infer(obs)
             except Exception as exc:  # noqa: BLE001 - the client gets the reason, the server goes on
                 log.warning("infer failed: %s: %s", type(exc).__name__, exc)
@@ -117,7 +126,8 @@ class PolicyServer:
 
     async def _serve(self, started: threading.Event | None) -> None:
         self._stop = asyncio.Event()
-        async with serve(self._handle, self.host, self.port, compression=None, max_size=None, process_request=_health) as server:
+        async with serve(self._handle, self.host, self.port, compression=None,
+                         max_size=self.max_frame_bytes, process_request=_health) as server:
             self.port = server.sockets[0].getsockname()[1]
             if started is not None:
                 started.set()
