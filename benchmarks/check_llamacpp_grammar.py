@@ -40,7 +40,7 @@ import time
 import urllib.request
 from pathlib import Path
 
-from xicm.serving.ports import ServerNotReady, free_port, wait_http_ok
+from xicm.serving.ports import ServerNotReady, free_port, stop_process, wait_http_ok
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
@@ -170,12 +170,7 @@ def main() -> None:
         free = llms["none"].complete_messages(POEM)
         print(f"the same under grammar=none: {free[:160]!r}")
     finally:
-        server.terminate()
-        try:
-            server.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            server.kill()
-            server.wait()
+        stop_process(server, timeout_s=20)
         log.close()
 
 

@@ -37,3 +37,14 @@ def wait_http_ok(url: str, process: subprocess.Popen, timeout_s: float, poll_s: 
             pass
         time.sleep(poll_s)
     raise ServerNotReady(f"{name} did not answer {url} within {timeout_s:g} s")
+
+
+def stop_process(process: subprocess.Popen, timeout_s: float = 10.0) -> None:
+    """SIGTERM, then SIGKILL if `process` has not exited within `timeout_s`; reaps it."""
+    if process.poll() is None:
+        process.terminate()
+        try:
+            process.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()

@@ -29,7 +29,7 @@ from xicm.plugins.llms import openai_compatible
 from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX
 from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
 from xicm.plugins.llms.rendering import render_plain, render_raw
-from xicm.serving.ports import free_port, wait_http_ok
+from xicm.serving.ports import free_port, stop_process, wait_http_ok
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 MESSAGES = [
@@ -309,12 +309,7 @@ def served_model(tmp_path_factory):
         print(f"\ntransformers serve: ready after {ready_s:.0f} s")
         yield folder, f"http://127.0.0.1:{port}/v1"
     finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        stop_process(proc, timeout_s=30)
         log.seek(0)
         print(log.read()[-3000:])
         log.close()

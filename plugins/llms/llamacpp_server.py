@@ -30,7 +30,7 @@ from pathlib import Path
 
 from xicm.core.atomic import file_lock
 from xicm.core.errors import ConfigError
-from xicm.serving.ports import ServerNotReady, free_port, wait_http_ok
+from xicm.serving.ports import ServerNotReady, free_port, stop_process, wait_http_ok
 
 LLAMACPP_VERSION = "11434"
 BUILD_SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "build_llamacpp.sh"
@@ -208,13 +208,7 @@ class LlamaServer:
 
 
 def _stop_process(process: subprocess.Popen, log: str) -> None:
-    if process.poll() is None:
-        process.terminate()
-        try:
-            process.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+    stop_process(process, timeout_s=5)
     try:
         os.unlink(log)
     except OSError:
