@@ -33,7 +33,7 @@ from xicm.core.errors import ConfigError
 from xicm.serving.ports import ServerNotReady, free_port, stop_process, wait_http_ok
 
 LLAMACPP_VERSION = "11434"
-BUILD_SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "build_llamacpp.sh"
+BUILD_SCRIPT = Path(__file__).with_name("build_llamacpp.sh")  # package data: wheel installs build too
 STARTS = 3  # a port taken between choosing and binding it is retried with another
 
 
@@ -72,7 +72,8 @@ def _build(path: Path) -> None:
     print("[xicm] building llama.cpp's llama-server once for this machine (about 10 min on 2 cores)", file=sys.stderr)
     log = path.parents[2] / "build.log"
     with open(log, "w") as out:
-        done = subprocess.run(["bash", str(BUILD_SCRIPT)], stdout=out, stderr=subprocess.STDOUT)
+        done = subprocess.run(["bash", str(BUILD_SCRIPT)], stdout=out, stderr=subprocess.STDOUT,
+                              env={**os.environ, "PYTHON": sys.executable})
     if done.returncode != 0 or not path.is_file():
         raise ConfigError(f"building llama-server failed (exit {done.returncode}); see {log}, or run bash {BUILD_SCRIPT}")
 

