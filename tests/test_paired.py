@@ -25,3 +25,12 @@ def test_only_common_episodes_are_compared_per_task():
     assert (result["only_in_a"], result["only_in_b"]) == (1, 1)
     text = paired_markdown(result, "A", "B")
     assert "| **all** | 3 | 2 (66.7 %) | 2 (66.7 %) | 1 | 1 |" in text and "p = 1 (two-sided)" in text
+
+
+def test_paired_command_needs_two_runs(capsys):
+    from xicm.core.cli import report_main
+
+    with pytest.raises(SystemExit) as done:
+        report_main(["--paired", "only_one_run"])
+    assert done.value.code == 2
+    assert "--paired compares two runs, not 1: xicm-report --paired RUN_A RUN_B" in capsys.readouterr().err
