@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Any
 
@@ -12,9 +13,11 @@ from xicm.core.atomic import write_json_atomic
 from xicm.core.episode_loop import run_episodes
 from xicm.core.plugins import describe_plugins, get_registry
 from xicm.core.ray_shards import episode_runner, shard_settings
-from xicm.core.run_dir import RunDir, config_fingerprint, episode_keys
+from xicm.core.run_dir import ADDED_ON_RESUME, IDENTITY, RunDir, config_fingerprint, episode_keys, identity
 from xicm.core.tracking import Tracker
 from xicm.core.video import VideoSettings
+
+log = logging.getLogger(__name__)
 
 
 def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
@@ -23,7 +26,14 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     build.check_run(cfg, registry, tasks)
     shards = shard_settings(cfg)
     video = VideoSettings.from_config(cfg, out_dir)
-    RunDir(out_dir).check_same_run(cfg)
+    run_dir = RunDir(out_dir)
+    added = run_dir.check_same_run(cfg)
+    if added:
+        log.warning(
+            "resuming %s with options declared after it started (%s); its earlier episodes ran before they existed",
+            out_dir, ", ".join(f"{k}={v}" for k, v in added.items()),
+        )
+    added = run_dir.added_on_resume(added)  # this resume's and earlier resumes'
     out_dir.mkdir(parents=True, exist_ok=True)
 
     plugins = describe_plugins(registry.pm)
@@ -45,6 +55,8 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
             RunDir(out_dir).meta,
             {
                 "fingerprint": config_fingerprint(cfg),
+                IDENTITY: identity(cfg),
+                **({ADDED_ON_RESUME: added} if added else {}),
                 "tasks": tasks,
                 "splits": splits,
                 **runner.metadata,

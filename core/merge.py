@@ -17,12 +17,10 @@ from typing import Any
 from xicm.core.atomic import write_atomic, write_json_atomic
 from xicm.core.errors import XicmError
 from xicm.core.report import write_report
-from xicm.core.run_dir import EPISODES, META, MERGE_MAY_DIFFER, RunDir, outside_identity
+from xicm.core.run_dir import EPISODES, META, MERGE_MAY_DIFFER, RunDir, flatten, outside_identity
 
 
 def merge_runs(out_dir: Path, run_dirs: list[Path]) -> dict[str, Any]:
-    from xicm.core.sweep import flatten
-
     runs = [RunDir(r) for r in run_dirs]
     for run in runs:
         if not run.is_run():
