@@ -266,6 +266,16 @@ def test_every_experiment_passes_every_schema(name):
             assert get_registry().check_options(group, options).name == options["name"]
 
 
+def test_the_paper_presets_select_demos_as_xicm_does():
+    """Image-only features ranked by the raw dot product (docs/AGNOSTOS.md, the selection row)."""
+    for name in ("paper_table2", "ablation_k", "ablation_llm"):
+        cfg = _compose([f"+experiment={name}"])
+        assert (cfg.retriever.name, cfg.retriever.score) == ("dynamics", "dot"), name
+        assert (cfg.encoder.visual, cfg.encoder.text_weight, cfg.encoder.normalise) == ("final", 0.0, False), name
+    ours = _compose(["retriever=dynamics"])
+    assert (ours.retriever.score, ours.encoder.visual, ours.encoder.normalise) == ("cosine", "change", True)
+
+
 def _constructor(factory):
     """What a factory's options become: the class's __init__ for a class, else the function."""
     return factory.__init__ if inspect.isclass(factory) else factory
