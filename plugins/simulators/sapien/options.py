@@ -10,6 +10,8 @@ SUCCESS_CHECKS = ("per_action", "per_frame")
 #: ours: each task's own ranges (every scene solvable by its demonstrator); rlbench: RLBench's
 #: ranges, each scene redrawn until the task's scripted solution solves it (SapienSimulator.reset_state)
 SCENE_RANGES = ("ours", "rlbench")
+#: where the Panda stands and how it starts (scene.py ROBOT_PLACEMENTS): ours, or RLBench's as recorded
+ROBOTS = ("ours", "rlbench")
 CAMERA_NAMES = ("front", "left_shoulder", "right_shoulder", "overhead", "wrist")
 #: per-step action spaces of `step(action)` (control_modes.py has their layouts)
 CONTROL_MODES = ("ee_delta", "ee_pose", "joint_pos", "joint_delta")
@@ -83,6 +85,7 @@ class SapienOptions:
     #: per_frame: success read after every control frame, the move ends when it holds (RLBench)
     success_check: str = field(default="per_action", metadata=one_of(*SUCCESS_CHECKS))
     scenes: str = field(default="ours", metadata=one_of(*SCENE_RANGES))
+    robot: str = field(default="ours", metadata=one_of(*ROBOTS))
     #: scenes: rlbench: draws of one episode's scene before it counts as unsolvable
     max_scene_draws: int = field(default=20, metadata=above(0))
 

@@ -54,6 +54,8 @@ class SapienSimulator(Simulator):
         success_check: 'per_action' (the task's success is read after each key action or step) or
             'per_frame' (after every control frame, as RLBench does during a move: the move ends
             and the episode succeeds the moment it holds; a task's ordered conditions latch).
+        scenes, max_scene_draws: 'ours' or 'rlbench' position/yaw ranges (options.py).
+        robot: 'ours' or 'rlbench': where the Panda stands and its start joints (scene.py ROBOT_PLACEMENTS).
         tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
             those registered for simulator "sapien", handed over by Registry.create_simulator.
     """
@@ -78,6 +80,7 @@ class SapienSimulator(Simulator):
         success_check: str = "per_action",
         scenes: str = "ours",
         max_scene_draws: int = 20,
+        robot: str = "ours",
         *,
         tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
@@ -89,6 +92,7 @@ class SapienSimulator(Simulator):
             render=bool(render),
             depth=bool(depth),
             segmentation=bool(segmentation),
+            robot=str(robot),
         )
         self.robot = self.world.robot
         self.objects = ObjectSet(self.world.scene)
