@@ -30,10 +30,14 @@ def paper_table() -> dict[str, Any]:
         row.setdefault("tasks", {})
         row["task_notes"] = {}
         if row["name"] in logged:
+            ends = xicm_logs.episode_ends(logged[row["name"]])
             for task, s in xicm_logs.task_success(logged[row["name"]]).items():
+                e = ends[task]
                 row["tasks"][task] = round(s["mean"], 2)
-                row["task_notes"][task] = (f"{task}: mean of {s['seeds']} seeds (std {s['std']:.1f}), "
-                                           f"X-ICM's logs, {src['repo']} at {src['commit'][:7]}")
+                row["task_notes"][task] = (
+                    f"{task}: mean of {s['seeds']} seeds (std {s['std']:.1f}); of {e['episodes']} episodes "
+                    f"{100 * e['early'] / e['episodes']:.0f} % failed early, {100 * e['full'] / e['episodes']:.0f} % "
+                    f"used all 25 key actions, {e['mean_steps']:.1f} on average; X-ICM's logs, {src['repo']} at {src['commit'][:7]}")
     return table
 
 

@@ -5,6 +5,7 @@ how its episodes end (success, early end, all 25 key actions), to set beside our
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -61,18 +62,24 @@ def level_means(run: dict[str, Any], levels: dict[str, list[str]]) -> dict[str, 
             for name, tasks in levels.items()}
 
 
+def summarise_ends(episodes: Iterable[tuple[int, bool]]) -> dict[str, float]:
+    """(steps, success) pairs -> episodes, successes, failures that ended early (before the 25th key
+    action: an error ended them), failures that used all 25, and mean steps. The same rule for
+    upstream's csvs and for our rows, so the two compare."""
+    episodes = list(episodes)
+    steps = [s for s, _ in episodes]
+    return {
+        "episodes": len(episodes),
+        "successes": sum(ok for _, ok in episodes),
+        "early": sum(not ok and s < MAX_STEPS for s, ok in episodes),
+        "full": sum(not ok and s >= MAX_STEPS for s, ok in episodes),
+        "mean_steps": float(np.mean(steps)) if steps else float("nan"),
+    }
+
+
 def episode_ends(run: dict[str, Any]) -> dict[str, dict[str, float]]:
-    """Per task, over the seeds whose csv the repository keeps: episodes, successes, failures that
-    ended early (an error before the 25th key action), failures that used all 25, and mean steps."""
-    out = {}
-    for task, per_seed in run["episodes"].items():
-        episodes = [e for text in per_seed.values() if text is not None for e in parse_episodes(text)[0]]
-        steps = [s for s, _ in episodes]
-        out[task] = {
-            "episodes": len(episodes),
-            "successes": sum(ok for _, ok in episodes),
-            "early": sum(not ok and s < MAX_STEPS for s, ok in episodes),
-            "full": sum(not ok and s == MAX_STEPS for s, ok in episodes),
-            "mean_steps": float(np.mean(steps)) if steps else float("nan"),
-        }
-    return out
+    """summarise_ends per task, over the seeds whose csv the repository keeps."""
+    return {
+        task: summarise_ends(e for text in per_seed.values() if text is not None for e in parse_episodes(text)[0])
+        for task, per_seed in run["episodes"].items()
+    }

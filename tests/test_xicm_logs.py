@@ -63,7 +63,7 @@ def test_the_paper_rows_get_per_task_cells_from_the_logs_and_no_other_row_does()
     rows = {row["name"]: row for row in table2.paper_table()["rows"]}
     assert rows["X-ICM (72B)"]["tasks"]["close_fridge"] == pytest.approx(12.67, abs=0.01)
     assert rows["X-ICM (7B)"]["tasks"]["take_lid_off_saucepan"] == pytest.approx(20.0)
-    assert "mean of 6 seeds (std 5.4)" in rows["X-ICM (72B)"]["task_notes"]["close_fridge"]
+    assert "mean of 6 seeds (std 5.4); of 150 episodes 85 % failed early" in rows["X-ICM (72B)"]["task_notes"]["close_fridge"]
     assert rows["VoxPoser"]["tasks"] == {} and rows["X-ICM (72B), random selection"]["tasks"] == {}
 
 
@@ -83,3 +83,16 @@ def test_episode_ends_split_failures_into_early_ends_and_full_budgets():
 def test_a_bad_entry_is_refused_with_one_sentence(text, message):
     with pytest.raises(ValueError, match=message):
         xicm_logs.parse_episodes(text)
+
+
+def test_the_comparison_script_sets_upstream_beside_a_committed_row(monkeypatch, capsys):
+    import runpy
+    import sys
+
+    row = ROOT / "results/agnostos/xicm-paper-language-k4-actions/nearest_demo"
+    monkeypatch.setattr(sys, "argv", ["xicm_logs_compare.py", str(row)])
+    runpy.run_path(str(ROOT / "benchmarks/xicm_logs_compare.py"), run_name="__main__")
+    lines = capsys.readouterr().out.splitlines()
+    fridge = next(line for line in lines if line.startswith("| close_fridge |"))
+    assert fridge.startswith("| close_fridge | 1 | 12.7 | 22.7 | 47 (7/15) | easier here | 85 / 3 · 3.4 |")
+    assert lines[-1].startswith("| **all episodes** | | 30 | 24 | 7 (23/345) |")
