@@ -66,22 +66,14 @@ def main() -> None:
                 verdict = "easier here" if lo > mean else "harder here" if hi < mean else ""
         print(f"| {task} | {level} | {success['X-ICM (72B)'][task]['mean']:.1f} | {success['X-ICM (7B)'][task]['mean']:.1f} | "
               + " | ".join(cells) + f" | {verdict} | {ends_cell(upstream_ends[task])} | " + " | ".join(ends) + " |")
-    all_up = xicm_logs.summarise_ends(e for per_seed in big["episodes"].values() for text in per_seed.values()
-                                      if text is not None for e in xicm_logs.parse_episodes(text)[0])
+    all_up, all_small = xicm_logs.run_ends(big), xicm_logs.run_ends(small)
     mine = []
     for t in totals:
         t_ends = {**t, "mean_steps": t["steps"] / t["episodes"] if t["episodes"] else float("nan")}
         mine.append((f"{pct(t['successes'], t['episodes'])} ({t['successes']}/{t['episodes']})", ends_cell(t_ends)))
     print(f"| **all episodes** | | {pct(all_up['successes'], all_up['episodes'])} | "
-          f"{pct(*_pooled(small))} | " + " | ".join(m[0] for m in mine) + f" | | {ends_cell(all_up)} | "
+          f"{pct(all_small['successes'], all_small['episodes'])} | " + " | ".join(m[0] for m in mine) + f" | | {ends_cell(all_up)} | "
           + " | ".join(m[1] for m in mine) + " |")
-
-
-def _pooled(run: dict) -> tuple[int, int]:
-    """(successes, episodes) of a logged run over all its transcribed episodes."""
-    e = xicm_logs.summarise_ends(x for per_seed in run["episodes"].values() for text in per_seed.values()
-                                 if text is not None for x in xicm_logs.parse_episodes(text)[0])
-    return e["successes"], e["episodes"]
 
 
 if __name__ == "__main__":

@@ -5,7 +5,7 @@ how its episodes end (success, early end, all 25 key actions), to set beside our
 from __future__ import annotations
 
 import functools
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -77,9 +77,18 @@ def summarise_ends(episodes: Iterable[tuple[int, bool]]) -> dict[str, float]:
     }
 
 
+def seed_episodes(per_seed: dict[int, str | None]) -> Iterator[tuple[int, bool]]:
+    """(steps, success) of every transcribed episode of one task, seed after seed."""
+    for text in per_seed.values():
+        if text is not None:
+            yield from parse_episodes(text)[0]
+
+
 def episode_ends(run: dict[str, Any]) -> dict[str, dict[str, float]]:
     """summarise_ends per task, over the seeds whose csv the repository keeps."""
-    return {
-        task: summarise_ends(e for text in per_seed.values() if text is not None for e in parse_episodes(text)[0])
-        for task, per_seed in run["episodes"].items()
-    }
+    return {task: summarise_ends(seed_episodes(per_seed)) for task, per_seed in run["episodes"].items()}
+
+
+def run_ends(run: dict[str, Any]) -> dict[str, float]:
+    """summarise_ends over all of a run's transcribed episodes."""
+    return summarise_ends(e for per_seed in run["episodes"].values() for e in seed_episodes(per_seed))
