@@ -40,6 +40,8 @@ def main() -> None:
     ours = []
     for folder in args.runs:
         run = RunDir(folder)
+        if not run.is_run():
+            ap.error(f"{folder} is not a run folder: it needs episodes.jsonl and run.json")
         by_task = defaultdict(list)
         for r in run.rows():
             by_task[r["task"]].append(r)

@@ -96,3 +96,13 @@ def test_the_comparison_script_sets_upstream_beside_a_committed_row(monkeypatch,
     fridge = next(line for line in lines if line.startswith("| close_fridge |"))
     assert fridge.startswith("| close_fridge | 1 | 12.7 | 22.7 | 47 (7/15) | easier here | 85 / 3 · 3.4 |")
     assert lines[-1].startswith("| **all episodes** | | 30 | 24 | 7 (23/345) |")
+
+
+def test_the_comparison_script_refuses_a_folder_that_is_not_a_run(tmp_path, monkeypatch, capsys):
+    import runpy
+    import sys
+
+    monkeypatch.setattr(sys, "argv", ["xicm_logs_compare.py", str(tmp_path)])
+    with pytest.raises(SystemExit) as done:
+        runpy.run_path(str(ROOT / "benchmarks/xicm_logs_compare.py"), run_name="__main__")
+    assert done.value.code == 2 and f"{tmp_path} is not a run folder: it needs episodes.jsonl and run.json" in capsys.readouterr().err
