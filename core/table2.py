@@ -37,7 +37,7 @@ def paper_table() -> dict[str, Any]:
                 row["task_notes"][task] = (
                     f"{task}: mean of {s['seeds']} seeds (std {s['std']:.1f}); of {e['episodes']} episodes "
                     f"{100 * e['early'] / e['episodes']:.0f} % failed early, {100 * e['full'] / e['episodes']:.0f} % "
-                    f"used all 25 key actions, {e['mean_steps']:.1f} on average; X-ICM's logs, {src['repo']} at {src['commit'][:7]}")
+                    f"used all 25 key actions, mean {e['mean_steps']:.1f} key actions; X-ICM's logs, {src['repo']} at {src['commit'][:7]}")
     return table
 
 

@@ -134,7 +134,7 @@ def test_run_page_is_self_contained_with_table2_paper_rows_media_and_first_frame
     assert (paper[0][head.index(L1)], paper[0][head.index(L2)], paper[2][head.index(L1)]) == ("12.7", "2.7", "22.7")
     assert paper[1][head.index(L1)] == paper[3][head.index(L1)] == "·"
     assert (f'title="{L1}: mean of 6 seeds (std 5.4); of 150 episodes 85 % failed early, 3 % used all 25 key actions, '
-            f'3.4 on average; X-ICM&#39;s logs, jiaming-zhou/X-ICM at 0a8cd6c"') in text
+            f'mean 3.4 key actions; X-ICM&#39;s logs, jiaming-zhou/X-ICM at 0a8cd6c"') in text
     videos = [attrs for tag, attrs in page.tags if tag == "video"]
     assert len(videos) == 2 and all(v["src"].startswith("data:video/mp4;base64,") for v in videos)  # the 1000-byte ones
     assert f'<a href="videos/{L2}/s0-e0000-FAIL.mp4">' in text and "1 larger ones are linked" in text
