@@ -50,7 +50,7 @@ def test_a_wheel_install_carries_configs_assets_and_plugins(tmp_path):
     wheel = next(tmp_path.glob("xicm-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "xicm/conf/config.yaml" in names and "xicm/conf/llm/gemma3_270m.yaml" in names
-    assert {"xicm/core/paper_table2.yaml", "xicm/core/templates/run.html.j2", "xicm/core/templates/sweep.html.j2"} <= set(names)
+    assert {"xicm/core/paper_table2.yaml", "xicm/core/xicm_logs.yaml", "xicm/core/templates/run.html.j2", "xicm/core/templates/sweep.html.j2"} <= set(names)
     assert any(n.startswith("xicm/plugins/simulators/sapien/assets/panda/") and n.endswith(".urdf") for n in names)
     assert not any(n.startswith(("xicm/tests/", "xicm/.venv/")) for n in names)
     target = tmp_path / "site"
