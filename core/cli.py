@@ -190,7 +190,7 @@ def _print_paired(dirs: list[str]) -> None:
 
 def report_main(argv: list[str] | None = None) -> None:
     """xicm-report DIR [DIR ...] [--html] | --merge OUT_DIR RUN_DIR [RUN_DIR ...] (see report_parser)."""
-    from xicm.core.report import markdown_table, media_lines, summarise
+    from xicm.core.report import markdown_table, media_lines, std_ddof, summarise
     from xicm.core.run_dir import EPISODES, META, REPORT_FILES, RunDir, find_runs
 
     args = report_parser().parse_args(argv)
@@ -218,7 +218,7 @@ def report_main(argv: list[str] | None = None) -> None:
             meta = run.read_meta()
             print(f"## {run_dir}\n")
             rows = run.rows(meta)
-            print(markdown_table(summarise(rows, meta["splits"], meta["tasks"])))
+            print(markdown_table(summarise(rows, meta["splits"], meta["tasks"], std_ddof(meta))))
             for line in media_lines(rows, run_dir):  # rollout videos and LLM transcripts, if any
                 print(line)
             print()

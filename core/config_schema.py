@@ -13,7 +13,7 @@ from typing import Any, Dict, List, Optional
 from omegaconf import MISSING
 
 from xicm.core.instructions import INSTRUCTION_CHOICES
-from xicm.core.schema import at_least, number, one_of, rule
+from xicm.core.schema import at_least, between, number, one_of, rule
 
 #: episode_rng keeps 32 bits of a seed (xicm.core.seeding), so larger or negative seeds would
 #: repeat the scenes of another seed.
@@ -93,6 +93,7 @@ class Video:
 class Report:
     html: bool = MISSING
     inline_video_mb: Any = field(default=MISSING, metadata=number(0))
+    std_ddof: int = field(default=MISSING, metadata=between(0, 1))
 
 
 @dataclass

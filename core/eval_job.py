@@ -73,7 +73,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
                 progress=bool(cfg.progress),
                 on_result=lambda r: tracker.log({"success": int(r.success), "steps": r.steps, f"task/{r.task}/success": int(r.success)}),
             )
-            summary = report.write_report(rows, splits, tasks, out_dir)
+            summary = report.write_report(rows, splits, tasks, out_dir, int(cfg.report.std_ddof))
             _write_html(cfg, out_dir)
             _track_summary(tracker, summary, rows, str(cfg.run_name), f"ours, {cfg.simulator.name}")
             tracker.log_run_media(rows, out_dir)
@@ -110,7 +110,7 @@ def _track_summary(tracker: Tracker, summary: dict[str, Any], rows: list[dict[st
         ["task", "split", "success", "std", "n", "ci_low", "ci_high"],
         [[r["task"], r["split"], r["success"], r["std"], r["n"], r["ci_low"], r["ci_high"]] for r in summary["tasks"]],
     )
-    ours = table2.our_row(rows, name)
+    ours = table2.our_row(rows, name, int(summary.get("std_ddof", 1)))
     if ours["groups"]:
         tracker.log_table("table2", *table2.flat_rows(ours, source))
         tracker.log_bars(

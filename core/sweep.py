@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from xicm.core.atomic import write_atomic, write_json_atomic
-from xicm.core.report import summarise
+from xicm.core.report import std_ddof, summarise
 from xicm.core.run_dir import RunDir, flatten, outside_identity
 
 SWEEP_FILES = ("sweep.md", "sweep.csv", "sweep.json", "sweep.png")  # written in the folder above the runs
@@ -62,7 +62,7 @@ def collect_sweep(runs: list[Path]) -> dict[str, Any]:
     axes = varying(flats)
     rows = []
     for run, meta, flat in zip(runs, metas, flats):
-        summary = summarise(RunDir(run).rows(meta), meta["splits"], meta["tasks"])
+        summary = summarise(RunDir(run).rows(meta), meta["splits"], meta["tasks"], std_ddof(meta))
         rows.append(
             {
                 **{a: flat.get(a) for a in axes},

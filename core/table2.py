@@ -53,7 +53,7 @@ def pooled(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     return {"n": n, "successes": k, "ci_low": 100 * lo, "ci_high": 100 * hi}
 
 
-def our_row(rows: Sequence[dict[str, Any]], name: str) -> dict[str, Any]:
+def our_row(rows: Sequence[dict[str, Any]], name: str, ddof: int = 1) -> dict[str, Any]:
     """Our run in the Table-2 layout: per column task its summary row (absent when not run),
     per level mean (std over seeds), seeds, and the pooled n and Wilson interval.
     Levels are the paper's (its two task lists), so 'All' never includes seen tasks."""
@@ -61,7 +61,7 @@ def our_row(rows: Sequence[dict[str, Any]], name: str) -> dict[str, Any]:
     cols = columns()
     splits = {**{t: "level1" for t in table["level1"]}, **{t: "level2" for t in table["level2"]}}
     mine = [r for r in rows if r["task"] in splits]
-    summary = summarise(mine, splits, cols)
+    summary = summarise(mine, splits, cols, ddof)
     groups = {}
     for g in summary["groups"]:
         members = [r for r in mine if g["group"] == "All" or splits[r["task"]] == g["group"].lower().replace("-", "")]
