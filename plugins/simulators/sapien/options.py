@@ -86,6 +86,9 @@ class SapienOptions:
     success_check: str = field(default="per_action", metadata=one_of(*SUCCESS_CHECKS))
     scenes: str = field(default="ours", metadata=one_of(*SCENE_RANGES))
     robot: str = field(default="ours", metadata=one_of(*ROBOTS))
+    #: success_check: per_frame: a move that met success still runs its gripper command, then success
+    #: is read once, as X-ICM's RLBench does (false: the command is skipped and success stands)
+    gripper_after_success: bool = False
     #: scenes: rlbench: draws of one episode's scene before it counts as unsolvable
     max_scene_draws: int = field(default=20, metadata=above(0))
 

@@ -56,6 +56,8 @@ class SapienSimulator(Simulator):
             and the episode succeeds the moment it holds; a task's ordered conditions latch).
         scenes, max_scene_draws: 'ours' or 'rlbench' position/yaw ranges (options.py).
         robot: 'ours' or 'rlbench': where the Panda stands and its start joints (scene.py ROBOT_PLACEMENTS).
+        gripper_after_success: with per_frame, a key action whose move met success still runs its
+            gripper command, then success is read once (X-ICM's RLBench); false skips the command.
         tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
             those registered for simulator "sapien", handed over by Registry.create_simulator.
     """
@@ -81,6 +83,7 @@ class SapienSimulator(Simulator):
         scenes: str = "ours",
         max_scene_draws: int = 20,
         robot: str = "ours",
+        gripper_after_success: bool = False,
         *,
         tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
@@ -113,6 +116,7 @@ class SapienSimulator(Simulator):
             why = f"simulator option success_check is '{success_check}'; allowed: {', '.join(SUCCESS_CHECKS)}"
             raise ValueError(why)
         self.per_frame_success = success_check == "per_frame"
+        self.gripper_after_success = bool(gripper_after_success)
         if grasp == "attach":
             self.world.grasp = self.controller.grasp = GraspAttacher(self.world.scene, self.robot)
         if scenes not in SCENE_RANGES:
@@ -279,8 +283,7 @@ class SapienSimulator(Simulator):
                 self.controller.move_to(target)
             except Unreachable as exc:
                 return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=str(exc))
-            if not self.controller.halted:
-                self.controller.set_gripper(bool(action.gripper_open))
+            self._gripper(bool(action.gripper_open))
             return StepOutcome(ok=True, success=self.is_success())
         except Exception as exc:  # noqa: BLE001 - a simulator failure must not crash the run
             return StepOutcome(False, False, error_kind="sim_error", error_message=f"{type(exc).__name__}: {exc}")
@@ -297,9 +300,24 @@ class SapienSimulator(Simulator):
             why = f"joint target outside the Panda's limits at joint(s) {bad}"
             return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=why)
         self.controller.move_joints(q)
-        if not self.controller.halted:
-            self.controller.set_gripper(bool(action.gripper_open))
+        self._gripper(bool(action.gripper_open))
         return StepOutcome(ok=True, success=self.is_success())
+
+    def _gripper(self, open_: bool) -> None:
+        """The key action's gripper command, after its move. A move that met success part-way
+        (success_check: per_frame) skips it; with gripper_after_success, as X-ICM's RLBench, the
+        gripper still acts, unwatched, and success is then read once (is_success)."""
+        if not self.controller.halted:
+            self.controller.set_gripper(open_)
+            return
+        if not self.gripper_after_success:
+            return
+        watch, self.controller.success_check = self.controller.success_check, None
+        self.controller.halted = False
+        try:
+            self.controller.set_gripper(open_)
+        finally:
+            self.controller.success_check = watch
 
     # --- per-step control -------------------------------------------------------------------
     def control_modes(self) -> tuple[str, ...]:
