@@ -31,6 +31,7 @@ class XICMPolicy(Policy):
     pool_path: str | None = None  # where the pool came from (for run.json)
     rerank: bool = False  # re-select demos on every LLM call, not only the first
     partial_replies: bool = False  # keep a reply's actions before its first invalid one
+    parse_fallback: bool = False  # read replies as X-ICM does, with its default actions (parsing.parse_actions_xicm)
 
     def __post_init__(self) -> None:
         self._start("", np.random.default_rng(0))
@@ -80,6 +81,12 @@ class XICMPolicy(Policy):
         call["reply"] = reply
         self.llm_calls += 1
         self._record["responses"].append(reply)
+        if self.parse_fallback:
+            with self._stage("parse", "parse_error"):
+                actions, fallback = parsing.parse_actions_xicm(reply, self.workspace)
+            if fallback is not None:
+                self._record["extra"].setdefault("parse_fallbacks", []).append(f"reply {self.llm_calls}: {fallback}")
+            return actions
         with self._stage("parse", "parse_error"):
             actions = parsing.parse_actions(reply, self.workspace, partial=self.partial_replies)
         if isinstance(actions, parsing.ParseError):
