@@ -1,5 +1,6 @@
-"""Local ports for servers started by tests and benchmarks: a port that is free now, and waiting
-until a server process answers HTTP 200 on a URL (standard library only)."""
+"""Local ports for servers started by tests and benchmarks: a port that is free now, waiting
+until a server process answers HTTP 200 on a URL, and what a server process holds (standard
+library only, but for psutil in `server_counts`)."""
 
 from __future__ import annotations
 
@@ -48,3 +49,18 @@ def stop_process(process: subprocess.Popen, timeout_s: float = 10.0) -> None:
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
+
+
+def server_counts(pid: int, port: int) -> dict:
+    """What server process `pid` holds now: its child processes (all generations), the ports it and
+    they listen on, and the connections established on `port` (for leak checks before and after)."""
+    import psutil  # xicm[dev]; also a dependency of wandb
+
+    proc = psutil.Process(pid)
+    family = [proc, *proc.children(recursive=True)]
+    conns = [c for p in family for c in p.net_connections(kind="inet")]
+    return {
+        "children": len(family) - 1,
+        "listening": sorted(c.laddr.port for c in conns if c.status == psutil.CONN_LISTEN),
+        "open_on_port": sum(1 for c in conns if c.status == psutil.CONN_ESTABLISHED and c.laddr.port == port),
+    }

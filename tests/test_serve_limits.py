@@ -9,7 +9,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import psutil
 import pytest
 from omegaconf import OmegaConf
 from websockets.exceptions import ConnectionClosed
@@ -18,7 +17,7 @@ from websockets.sync.client import connect
 import xicm
 from xicm.serving import limits
 from xicm.serving.client import PolicyClient, ServerError, server_uri
-from xicm.serving.ports import free_port
+from xicm.serving.ports import free_port, server_counts
 from xicm.serving.server import PolicyServer
 from xicm.serving.wire import pack, unpack
 
@@ -93,18 +92,6 @@ def test_a_silent_client_is_disconnected_and_a_busy_one_is_not():
         srv.stop()
 
 
-def counts(pid: int, port: int) -> dict:
-    """The server's child processes, its listening sockets, and the connections open on its port."""
-    proc = psutil.Process(pid)
-    family = [proc, *proc.children(recursive=True)]
-    conns = [c for p in family for c in p.net_connections(kind="inet")]
-    return {
-        "children": len(family) - 1,
-        "listening": sorted(c.laddr.port for c in conns if c.status == psutil.CONN_LISTEN),
-        "open_on_port": sum(1 for c in conns if c.status == psutil.CONN_ESTABLISHED and c.laddr.port == port),
-    }
-
-
 def start_episode(uri: str, episode: int) -> None:
     """Connect, ask for the first actions of an episode and leave without waiting for them."""
     ws = connect(uri, compression=None, open_timeout=60)
@@ -130,7 +117,7 @@ def test_clients_leaving_mid_episode_leave_no_session_process_or_port_behind(tmp
         else:
             pytest.fail("xicm-serve-policy exited before serving")
         threading.Thread(target=lambda: [_ for _ in server.stdout], daemon=True).start()  # keep its pipe drained
-        before = counts(server.pid, port)
+        before = server_counts(server.pid, port)
         assert before["listening"] == [port] and before["open_on_port"] == 0 and before["children"] >= 1
         threads = [threading.Thread(target=start_episode, args=(uri, i)) for i in range(3)]
         for t in threads:
@@ -138,13 +125,13 @@ def test_clients_leaving_mid_episode_leave_no_session_process_or_port_behind(tmp
         peak = before
         deadline = time.monotonic() + 300
         while time.monotonic() < deadline:
-            now = counts(server.pid, port)
+            now = server_counts(server.pid, port)
             peak = max(peak, now, key=lambda c: c["children"])
             if all(not t.is_alive() for t in threads) and now == before and peak["children"] == before["children"] + 2:
                 break
             time.sleep(0.5)
         assert peak["children"] == before["children"] + 2, (before, peak)  # two sessions built on need ...
-        assert counts(server.pid, port) == before  # ... and closed again when their clients left
+        assert server_counts(server.pid, port) == before  # ... and closed again when their clients left
         client = PolicyClient(uri, timeout_s=120)
         reply = client.infer({"xicm/episode": {"task": "push_buttons", "seed": 0, "episode": 0, "call": 0}})
         assert "actions" in reply and "xicm/failure" not in reply
