@@ -15,14 +15,13 @@ from __future__ import annotations
 import argparse
 import os
 import secrets
-import subprocess
 import sys
 import threading
 import time
 from pathlib import Path
 
 from xicm.serving.client import PolicyClient, server_uri
-from xicm.serving.ports import free_port, server_counts, stop_process
+from xicm.serving.ports import ServerNotReady, free_port, server_counts, start_server, stop_process
 
 
 def client_loop(uri: str, key: str, index: int, requests: int, task: str, latencies: list, failures: list) -> None:
@@ -60,14 +59,11 @@ def main() -> None:
     command = [str(Path(sys.executable).parent / "xicm-serve-policy"), *overrides, f"serve.port={port}", f"benchmark.tasks=[{args.task}]",
                f"serve.sessions={args.sessions}", f"serve.max_sessions={max(args.clients, args.sessions)}", "serve.api_key_env=XICM_BENCH_KEY"]
     t0 = time.monotonic()
-    server = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env={**os.environ, "XICM_BENCH_KEY": key})
     try:
-        for line in server.stdout:
-            if "serving policy" in line:
-                break
-        else:
-            sys.exit(f"xicm-serve-policy exited before serving (code {server.wait()})")
-        threading.Thread(target=lambda: [_ for _ in server.stdout], daemon=True).start()  # keep its pipe drained
+        server, _ = start_server(command, "serving policy", env={**os.environ, "XICM_BENCH_KEY": key})
+    except ServerNotReady as exc:
+        sys.exit(str(exc))
+    try:
         print(f"server up in {time.monotonic() - t0:.1f} s: {' '.join(overrides)}, {args.sessions} sessions built at start")
         before = server_counts(server.pid, port)
         latencies: list[tuple[int, float]] = []

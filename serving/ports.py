@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import socket
 import subprocess
+import threading
 import time
 import urllib.request
 from pathlib import Path
@@ -38,6 +39,23 @@ def wait_http_ok(url: str, process: subprocess.Popen, timeout_s: float, poll_s: 
             pass
         time.sleep(poll_s)
     raise ServerNotReady(f"{name} did not answer {url} within {timeout_s:g} s")
+
+
+def start_server(command: list[str], ready_words: str, **popen) -> tuple[subprocess.Popen, list[str]]:
+    """Start a server process and return once a line of its output holds `ready_words`, with the
+    list its output lines keep going into (read by a thread, so its pipe never fills);
+    ServerNotReady if it exits first. Its stderr goes into the same list."""
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **popen)
+    lines: list[str] = []
+    for line in process.stdout:
+        lines.append(line)
+        if ready_words in line:
+            break
+    else:
+        process.wait()
+        raise ServerNotReady(f"{Path(command[0]).name} exited with code {process.returncode} before saying '{ready_words}'")
+    threading.Thread(target=lambda: lines.extend(process.stdout), daemon=True).start()
+    return process, lines
 
 
 def stop_process(process: subprocess.Popen, timeout_s: float = 10.0) -> None:

@@ -5,7 +5,6 @@ fuzz_frames plus every dtype letter, lying and huge shapes, and deep nesting."""
 
 import collections
 import os
-import subprocess
 import sys
 import threading
 import time
@@ -18,7 +17,7 @@ from websockets.sync.client import connect
 from websockets.sync.server import serve
 
 from xicm.serving.client import PolicyClient, ServerError, server_uri
-from xicm.serving.ports import free_port
+from xicm.serving.ports import free_port, start_server
 from xicm.serving.wire import pack
 
 BIN = Path(sys.executable).parent
@@ -59,18 +58,11 @@ def ask_episode(uri: str, key: str, stop: threading.Event, answers: list) -> Non
 def test_a_live_served_policy_answers_every_malformed_frame_and_a_good_client_throughout(tmp_path):
     key = "fuzz-key"
     port = free_port()
-    server = subprocess.Popen([str(BIN / "xicm-serve-policy"), "policy=oracle", f"serve.port={port}", "simulator.image_size=32",
-                               "serve.sessions=2", "serve.api_key_env=XICM_FUZZ_KEY", "benchmark.tasks=[push_buttons]"],
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path,
-                              env={**os.environ, "XICM_FUZZ_KEY": key})
+    server, _ = start_server([str(BIN / "xicm-serve-policy"), "policy=oracle", f"serve.port={port}", "simulator.image_size=32",
+                              "serve.sessions=2", "serve.api_key_env=XICM_FUZZ_KEY", "benchmark.tasks=[push_buttons]"],
+                             "serving policy 'oracle'", cwd=tmp_path, env={**os.environ, "XICM_FUZZ_KEY": key})
     uri = server_uri("127.0.0.1", port)
     try:
-        for line in server.stdout:
-            if "serving policy 'oracle'" in line:
-                break
-        else:
-            pytest.fail("xicm-serve-policy exited before serving")
-        threading.Thread(target=lambda: [_ for _ in server.stdout], daemon=True).start()  # keep its pipe drained
         stop, answers = threading.Event(), []
         good = threading.Thread(target=ask_episode, args=(uri, key, stop, answers))
         good.start()

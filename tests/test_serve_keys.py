@@ -17,7 +17,7 @@ from xicm.core.errors import ConfigError
 from xicm.core.literal_keys import refuse_literal_keys, refuse_literal_keys_on_command_line
 from xicm.serving.client import PolicyClient, ServerError, server_uri
 from xicm.serving.keys import KeyNotSet, key_from_env, key_matches
-from xicm.serving.ports import free_port
+from xicm.serving.ports import free_port, start_server
 from xicm.serving.server import PolicyServer
 
 BIN = Path(sys.executable).parent
@@ -143,18 +143,12 @@ def test_a_keyed_xicm_serve_policy_and_xicm_eval_leave_the_key_in_no_file(tmp_pa
     key = "xicm-test-key-" + secrets.token_hex(12)
     port = free_port()
     env = {k: v for k, v in os.environ.items() if k != "WANDB_MODE"}  # conftest disables wandb
-    server = subprocess.Popen([str(BIN / "xicm-serve-policy"), "policy=oracle", f"serve.port={port}", "simulator.image_size=32",
-                               "serve.api_key_env=XICM_SERVE_KEY"],
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path,
-                              env={**env, "XICM_SERVE_KEY": key})
+    server, server_lines = start_server([str(BIN / "xicm-serve-policy"), "policy=oracle", f"serve.port={port}", "simulator.image_size=32",
+                                         "serve.api_key_env=XICM_SERVE_KEY"], "serving policy 'oracle'", cwd=tmp_path,
+                                        env={**env, "XICM_SERVE_KEY": key})
     common = [str(BIN / "xicm-eval"), "policy=remote", f"policy.port={port}", "benchmark.tasks=[push_buttons]", "episodes=1",
               "progress=false", f"paths.cache={tmp_path}/cache", "policy.api_key_env=XICM_POLICY_KEY"]
     try:
-        for line in server.stdout:  # wait for the port to open
-            if "serving policy 'oracle'" in line:
-                break
-        else:
-            pytest.fail("xicm-serve-policy exited before serving")
         run = subprocess.run([*common, "tracking.mode=offline", "hydra.run.dir=run"], capture_output=True, text=True, cwd=tmp_path,
                              timeout=600, env={**env, "XICM_POLICY_KEY": key})
         assert run.returncode == 0, run.stderr[-3000:]
@@ -163,7 +157,8 @@ def test_a_keyed_xicm_serve_policy_and_xicm_eval_leave_the_key_in_no_file(tmp_pa
         unset = subprocess.run([*common, "hydra.run.dir=unset"], capture_output=True, text=True, cwd=tmp_path, timeout=600, env=env)
     finally:
         server.terminate()
-        server_out = server.communicate(timeout=60)[0]
+        server.wait(timeout=60)
+    server_out = "".join(server_lines)
     assert wrong.returncode == 2, wrong.stderr[-2000:]
     assert wrong.stderr.strip().splitlines()[-1] == (
         f"xicm: error: the policy server at ws://127.0.0.1:{port} refused the connection with HTTP 403 "

@@ -1,8 +1,6 @@
 """Server limits on real sockets (127.0.0.1): a cap on sessions, an idle timeout, and clients that
 leave mid-episode handing back their session and its simulator process (no process or port leak)."""
 
-import os
-import subprocess
 import sys
 import threading
 import time
@@ -17,7 +15,7 @@ from websockets.sync.client import connect
 import xicm
 from xicm.serving import limits
 from xicm.serving.client import PolicyClient, ServerError, server_uri
-from xicm.serving.ports import free_port, server_counts
+from xicm.serving.ports import free_port, server_counts, start_server
 from xicm.serving.server import PolicyServer
 from xicm.serving.wire import pack, unpack
 
@@ -106,17 +104,11 @@ def test_clients_leaving_mid_episode_leave_no_session_process_or_port_behind(tmp
     more (two more simulator processes); all three leave mid-episode; then the server has what it
     had before (one simulator process, one listening port, no connection) and still serves."""
     port = free_port()
-    server = subprocess.Popen([str(BIN / "xicm-serve-policy"), "policy=oracle", f"serve.port={port}", "simulator.image_size=32",
-                               "serve.sessions=1", "serve.max_sessions=3", "benchmark.tasks=[push_buttons]"],
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path, env=dict(os.environ))
+    server, _ = start_server([str(BIN / "xicm-serve-policy"), "policy=oracle", f"serve.port={port}", "simulator.image_size=32",
+                              "serve.sessions=1", "serve.max_sessions=3", "benchmark.tasks=[push_buttons]"],
+                             "serving policy 'oracle'", cwd=tmp_path)
     uri = server_uri("127.0.0.1", port)
     try:
-        for line in server.stdout:
-            if "serving policy 'oracle'" in line:
-                break
-        else:
-            pytest.fail("xicm-serve-policy exited before serving")
-        threading.Thread(target=lambda: [_ for _ in server.stdout], daemon=True).start()  # keep its pipe drained
         before = server_counts(server.pid, port)
         assert before["listening"] == [port] and before["open_on_port"] == 0 and before["children"] >= 1
         threads = [threading.Thread(target=start_episode, args=(uri, i)) for i in range(3)]
