@@ -76,7 +76,8 @@ def main() -> None:
             t.start()
         peak = before
         while any(t.is_alive() for t in threads):
-            peak = max(peak, server_counts(server.pid, port), key=lambda c: (c["children"], c["open_on_port"]))
+            now = server_counts(server.pid, port)
+            peak = {k: max(peak[k], now[k]) if k != "listening" else sorted(set(peak[k]) | set(now[k])) for k in now}
             time.sleep(0.2)
         wall = time.monotonic() - t0
         after = server_counts(server.pid, port)
@@ -94,7 +95,7 @@ def main() -> None:
             print(f"  per-request latency, {name} ({len(values)}): p50 {percentile(values, 50):.0f} ms, "
                   f"p99 {percentile(values, 99):.0f} ms, max {max(values):.0f} ms")
     print(f"server before: {before}")
-    print(f"server peak:   {peak}")
+    print(f"server peak:   {peak}  (each count's maximum while the clients ran)")
     print(f"server after:  {after}  ({'equal' if after == before else 'NOT equal'} to before)")
     for failure in failures[:5]:
         print(f"  failure: {failure}")

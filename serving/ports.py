@@ -75,10 +75,16 @@ def server_counts(pid: int, port: int) -> dict:
     import psutil  # xicm[dev]; also a dependency of wandb
 
     proc = psutil.Process(pid)
-    family = [proc, *proc.children(recursive=True)]
-    conns = [c for p in family for c in p.net_connections(kind="inet")]
+    alive, conns = 0, []
+    for member in proc.children(recursive=True):
+        try:
+            conns += member.net_connections(kind="inet")
+        except psutil.NoSuchProcess:  # a child that ended while we counted (a session closing)
+            continue
+        alive += 1
+    conns += proc.net_connections(kind="inet")
     return {
-        "children": len(family) - 1,
+        "children": alive,
         "listening": sorted(c.laddr.port for c in conns if c.status == psutil.CONN_LISTEN),
         "open_on_port": sum(1 for c in conns if c.status == psutil.CONN_ESTABLISHED and c.laddr.port == port),
     }
