@@ -49,7 +49,8 @@ class PolicyClient:
         self._ws: ClientConnection | None = None
 
     def connect(self) -> dict:
-        """(Re)connect; returns the server's metadata. Raises ServerError("server_unreachable")."""
+        """(Re)connect; returns the server's metadata. Raises ServerError: "server_unreachable", or
+        "server_refused" (HTTP 401/403 at the handshake: no key or a wrong one; or all sessions in use)."""
         self.close()
         headers = {HEADER: header_value(self.api_key)} if self.api_key else None
         try:
