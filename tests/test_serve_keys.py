@@ -173,3 +173,19 @@ def test_a_keyed_xicm_serve_policy_and_xicm_eval_leave_the_key_in_no_file(tmp_pa
     assert files_holding(tmp_path, key) == []
     assert key not in run.stdout + run.stderr + wrong.stderr + server_out
     assert "refused" in server_out and "wrong key" in server_out
+
+
+@pytest.mark.parametrize("host, refused", [("ws://user:secret@gpu:8000", True), ("wss://k@gpu", True), ("gpu.local", False),
+                                           ("ws://gpu:8000/path@x", False)])
+def test_credentials_in_the_policy_host_are_refused_without_repeating_them(host, refused):
+    from omegaconf import OmegaConf
+
+    from xicm.plugins.policies.remote import check_remote_config
+
+    cfg = OmegaConf.create({"policy": {"host": host, "gripper_open": 1.0, "gripper_closed": 0.0}})
+    if not refused:
+        check_remote_config(cfg, None)
+        return
+    with pytest.raises(ConfigError, match=r"^policy.host must not hold credentials") as err:
+        check_remote_config(cfg, None)
+    assert "secret" not in str(err.value) and "k@" not in str(err.value)
