@@ -24,9 +24,11 @@ def _fail(exc: Exception) -> None:
 def _check_command_line() -> None:
     """A command-line value of the wrong type or range, or an unknown key: one sentence, before Hydra composes."""
     from xicm.core.config_schema import XicmConfig
+    from xicm.core.literal_keys import refuse_literal_keys_on_command_line
     from xicm.core.schema import check_overrides
 
     try:
+        refuse_literal_keys_on_command_line(sys.argv[1:])  # before Hydra writes .hydra/overrides.yaml
         check_overrides(sys.argv[1:], XicmConfig, xicm.conf.groups())
     except XicmError as exc:
         _fail(exc)

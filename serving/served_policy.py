@@ -91,9 +91,11 @@ class ServedPolicy:
 
 
 class ServedPolicies:
-    """One ServedPolicy per client connection (each evaluation worker runs its own episodes),
-    built on first need by `build` and reused after its connection ends. Each session's
-    simulator lives in its own worker process (core/sim_process.py), so sessions act in parallel."""
+    """One ServedPolicy per client connection (each evaluation worker runs its own episodes).
+    `sessions` are built at start and reused after their connection ends; more are built by
+    `build` on need and closed (their simulator process ends) when their connection ends, so a
+    burst of clients leaves no process behind. Each session's simulator lives in its own worker
+    process (core/sim_process.py), so sessions act in parallel."""
 
     def __init__(self, build: Callable[[], Run], control_mode: str | None = None, sessions: int = 1):
         self.build = build
@@ -101,6 +103,7 @@ class ServedPolicies:
         self.lock = threading.Lock()  # guards the session lists only
         self.idle: list[ServedPolicy] = [ServedPolicy(build(), control_mode) for _ in range(max(1, sessions))]  # built at start
         self.all = list(self.idle)
+        self.kept = len(self.all)  # sessions kept between connections
 
     def metadata(self) -> dict[str, Any]:
         return self.all[0].metadata()
@@ -115,7 +118,13 @@ class ServedPolicies:
     def close_session(self, session: ServedPolicy) -> None:
         with self.lock:
             session.current = None
-            self.idle.append(session)
+            extra = len(self.all) > self.kept
+            if extra:
+                self.all.remove(session)
+            else:
+                self.idle.append(session)
+        if extra:
+            session.run.close()  # outside the lock: ending a simulator process takes a moment
 
     def close(self) -> None:
         for served in self.all:

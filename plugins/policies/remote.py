@@ -124,7 +124,7 @@ class RemotePolicyOptions:
     host: str = "127.0.0.1"  # or a ws:// / wss:// URI
     port: Optional[int] = field(default=8000, metadata=at_least(1))
     timeout_s: float = field(default=30.0, metadata=above(0))  # per request, and for connecting
-    api_key: Optional[str] = None
+    api_key_env: Optional[str] = None  # the NAME of the environment variable holding the server's key
     action_space: str = field(default="auto", metadata=one_of(*SPACES))
     chunk_steps_to_execute: Optional[int] = field(default=None, metadata=at_least(1))  # null: the whole chunk
     # camera -> request key; null: {front: observation/image}. Null in the YAML so that a mapping
@@ -143,7 +143,7 @@ def create_remote_policy(
     host: str = "127.0.0.1",
     port: int | None = 8000,
     timeout_s: float = 30.0,
-    api_key: str | None = None,
+    api_key_env: str | None = None,
     action_space: str = "auto",
     chunk_steps_to_execute: int | None = None,
     images: Mapping[str, str] | None = None,
@@ -155,18 +155,23 @@ def create_remote_policy(
     gripper_closed: float = 0.0,
 ) -> RemotePolicy:
     from xicm.serving.client import PolicyClient, ServerError, server_uri
+    from xicm.serving.keys import KeyNotSet, key_from_env
 
     options = dict(
-        host=host, port=port, timeout_s=timeout_s, api_key=api_key, action_space=action_space,
+        host=host, port=port, timeout_s=timeout_s, api_key_env=api_key_env, action_space=action_space,
         chunk_steps_to_execute=chunk_steps_to_execute, images=dict(images or DEFAULT_IMAGES),
         image_size=image_size, state_key=state_key, state=list(state),
         prompt_key=prompt_key, gripper_open=gripper_open, gripper_closed=gripper_closed,
     )
-    client = PolicyClient(server_uri(options["host"], options["port"]), options["timeout_s"], options["api_key"])
+    try:
+        api_key = key_from_env(api_key_env, "policy.api_key_env")  # held by the client only, never in options
+    except KeyNotSet as exc:
+        raise ConfigError(str(exc)) from None
+    client = PolicyClient(server_uri(options["host"], options["port"]), options["timeout_s"], api_key)
     try:
         client.connect()
     except ServerError as exc:
-        raise ConfigError(f"policy.host/port: {exc}") from exc
+        raise ConfigError(_refusal(exc, api_key_env) if exc.status in (401, 403) else f"policy.host/port: {exc}") from exc
     policy = RemotePolicy(client, options)
     mode = context.cfg.simulator.get("control_mode")
     if policy.per_step and mode is not None and policy.space != mode:
@@ -176,7 +181,16 @@ def create_remote_policy(
     return policy
 
 
+def _refusal(exc, api_key_env: str | None) -> str:
+    """The one sentence for a server that refused our key (or wanted one)."""
+    if not api_key_env:
+        return f"{exc}: it needs a key; export it in an environment variable and set policy.api_key_env to that variable's name"
+    return f"{exc}: check the key in ${api_key_env} (policy.api_key_env)"
+
+
 def check_remote_config(cfg, registry) -> None:
+    if "@" in str(cfg.policy.host).split("//", 1)[-1].split("/", 1)[0]:
+        raise ConfigError("policy.host must not hold credentials (user:password@): put the key in an environment variable named by policy.api_key_env")
     if float(cfg.policy.gripper_open) == float(cfg.policy.gripper_closed):
         raise ConfigError("policy.gripper_open and policy.gripper_closed must differ")
 
