@@ -276,6 +276,14 @@ def test_the_paper_presets_select_demos_as_xicm_does():
     assert (ours.retriever.score, ours.encoder.visual, ours.encoder.normalise) == ("cosine", "change", True)
 
 
+def test_the_paper_pool_is_collected_with_the_paper_presets_simulator():
+    pool, paper = _compose(["+experiment=paper_pool"]), _compose(["+experiment=paper_table2"])
+    assert (pool.benchmark.name, pool.collect.demos_per_task, pool.pool_path) == ("seen", 200, paper.pool_path)
+    assert pool.pool_path.endswith("pools/paper.h5") and pool.simulator == paper.simulator
+    assert (paper.simulator.robot, paper.simulator.gripper_after_success, paper.policy.parse_fallback) == ("rlbench", True, True)
+    assert _compose([]).simulator.robot == "ours"
+
+
 def _constructor(factory):
     """What a factory's options become: the class's __init__ for a class, else the function."""
     return factory.__init__ if inspect.isclass(factory) else factory
