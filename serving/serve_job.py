@@ -30,7 +30,7 @@ def serve_policy(cfg: DictConfig, ready=None) -> None:
             simulator.close()
             raise
 
-    served = ServedPolicies(build, control_mode=cfg.simulator.get("control_mode"), sessions=int(cfg.serve.sessions))
+    served = ServedPolicies(build, sessions=int(cfg.serve.sessions))
     server = PolicyServer(served, host=str(cfg.serve.host), port=int(cfg.serve.port), metadata=served.metadata())
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     try:

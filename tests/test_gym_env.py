@@ -57,8 +57,6 @@ class _no_checker_warnings:
 
 
 def test_a_replayed_recording_succeeds_terminates_and_reports_the_instruction():
-    from xicm.plugins.simulators.sapien.control_modes import actions
-
     env = gymnasium.make("xicm/OpenDrawer-v0", obs_mode="state", control_mode="joint_delta")
     try:
         obs, info = env.reset(seed=10_000, options={"episode": 0})
@@ -67,7 +65,7 @@ def test_a_replayed_recording_succeeds_terminates_and_reports_the_instruction():
         sim = env.unwrapped.sim
         rec = sim.record_scripted()
         env.reset(seed=10_000, options={"episode": 0})
-        for t, action in enumerate(actions(rec, "joint_delta")):
+        for t, action in enumerate(rec.actions["joint_delta"]):
             obs, reward, terminated, truncated, info = env.step(action.astype(np.float32))
             if terminated or truncated:
                 break

@@ -18,29 +18,37 @@ from typing import Dict, List, Optional
 from xicm.core.errors import ConfigError, EpisodeFailure
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Policy
-from xicm.core.schema import above, at_least, one_of
+from xicm.core.schema import above, at_least
+from xicm.core.spaces import GRIPPER_CLOSED, GRIPPER_OPEN, ControlSpec
 
 DEFAULT_IMAGES = MappingProxyType({"front": "observation/image"})  # camera -> request key (read-only)
 DEFAULT_STATE = ("joint_positions", "gripper_width")  # proprio fields, in order
-SPACES = ("auto", "key_pose", "key_joints", "ee_delta", "ee_pose", "joint_pos", "joint_delta")
 
 
 class RemotePolicy(Policy):
-    def __init__(self, client, options: dict):
-        from xicm.serving.actions import KEY_SPACES
+    """`spec`: the simulator's ControlSpec, the one source of the control modes (names, widths)
+    and proprio fields the server's chunks and the state vector are read in."""
 
+    def __init__(self, client, options: dict, spec: ControlSpec):
         self.client = client
         self.o = options
+        self.spec = spec
         meta = client.metadata.get("xicm", {}) if isinstance(client.metadata.get("xicm"), dict) else {}
+        modes = spec.mode_names()
         space = options["action_space"]
         if space == "auto":
             space = meta.get("action_space")
-            if space not in SPACES[1:]:
+            if space not in modes:
                 raise ConfigError(
-                    f"the server at {client.uri} does not say its action space; set policy.action_space to one of {', '.join(SPACES[1:])}"
+                    f"the server at {client.uri} does not say its action space; set policy.action_space to one of {', '.join(modes)}"
                 )
+        elif space not in modes:
+            raise ConfigError(f"policy.action_space is '{space}'; the simulator's control modes are {', '.join(modes)}")
+        unknown = [f for f in options["state"] if f not in [p.name for p in spec.state]]
+        if options["state_key"] and unknown:
+            raise ConfigError(f"policy.state names {', '.join(unknown)}; the simulator's proprio fields are {', '.join(p.name for p in spec.state)}")
         self.space = space
-        self.per_step = space not in KEY_SPACES
+        self.per_step = spec.mode(space).per_step
         self.full_observation = meta.get("observation") == "full"
         self.observes = bool(meta.get("observes", True))
         self.episode: dict = {}
@@ -80,10 +88,10 @@ class RemotePolicy(Policy):
         if isinstance(failure, dict):  # the served policy gave up (xicm-serve-policy)
             raise EpisodeFailure(str(failure.get("kind", "server_error")), str(failure.get("message", "")))
         space = reply.get("xicm/action_space", self.space)
-        if space not in SPACES[1:]:
-            raise EpisodeFailure("bad_reply", f"the server's action space {space!r} is not one of {', '.join(SPACES[1:])}")
+        if space not in self.spec.mode_names():
+            raise EpisodeFailure("bad_reply", f"the server's action space {space!r} is not one of {', '.join(self.spec.mode_names())}")
         try:
-            actions = to_actions(reply["actions"], space, o["gripper_open"], o["gripper_closed"])
+            actions = to_actions(reply["actions"], self.spec.mode(space), o["gripper_open"], o["gripper_closed"])
         except ValueError as exc:
             raise EpisodeFailure("bad_reply", str(exc)) from exc
         keep = o["chunk_steps_to_execute"]
@@ -125,7 +133,7 @@ class RemotePolicyOptions:
     port: Optional[int] = field(default=8000, metadata=at_least(1))
     timeout_s: float = field(default=30.0, metadata=above(0))  # per request, and for connecting
     api_key: Optional[str] = None
-    action_space: str = field(default="auto", metadata=one_of(*SPACES))
+    action_space: str = "auto"  # auto, or one of the simulator's control modes (checked when built)
     chunk_steps_to_execute: Optional[int] = field(default=None, metadata=at_least(1))  # null: the whole chunk
     # camera -> request key; null: {front: observation/image}. Null in the YAML so that a mapping
     # given on the command line replaces it whole (Hydra merges into an existing mapping)
@@ -134,8 +142,8 @@ class RemotePolicyOptions:
     state_key: Optional[str] = "observation/state"
     state: List[str] = field(default_factory=lambda: list(DEFAULT_STATE))  # proprio fields, in order
     prompt_key: Optional[str] = "prompt"
-    gripper_open: float = 1.0  # the server's value for an open gripper
-    gripper_closed: float = 0.0  # ... and for a closed one
+    gripper_open: float = GRIPPER_OPEN  # the server's value for an open gripper
+    gripper_closed: float = GRIPPER_CLOSED  # ... and for a closed one
 
 
 def create_remote_policy(
@@ -151,8 +159,8 @@ def create_remote_policy(
     state_key: str | None = "observation/state",
     state: Sequence[str] = DEFAULT_STATE,
     prompt_key: str | None = "prompt",
-    gripper_open: float = 1.0,
-    gripper_closed: float = 0.0,
+    gripper_open: float = GRIPPER_OPEN,
+    gripper_closed: float = GRIPPER_CLOSED,
 ) -> RemotePolicy:
     from xicm.serving.client import PolicyClient, ServerError, server_uri
 
@@ -167,11 +175,16 @@ def create_remote_policy(
         client.connect()
     except ServerError as exc:
         raise ConfigError(f"policy.host/port: {exc}") from exc
-    policy = RemotePolicy(client, options)
-    mode = context.cfg.simulator.get("control_mode")
-    if policy.per_step and mode is not None and policy.space != mode:
+    spec = context.simulator.control_spec()
+    try:
+        policy = RemotePolicy(client, options, spec)
+    except ConfigError:
+        client.close()
+        raise
+    if policy.per_step and policy.space != spec.control_mode:
+        client.close()
         raise ConfigError(
-            f"policy.action_space is {policy.space} but simulator.control_mode is {mode}; per-step actions are stepped in the simulator's control mode"
+            f"policy.action_space is {policy.space} but simulator.control_mode is {spec.control_mode}; per-step actions are stepped in the simulator's control mode"
         )
     return policy
 
