@@ -159,3 +159,17 @@ def test_async_vector_env_steps_two_different_tasks_in_worker_processes():
         assert np.all(obs["state"]["tcp_pose"][:, 2] < 0.5 - 0.03)  # both arms went down from z = 0.5
     finally:
         envs.close()
+
+
+def test_the_spaces_are_the_simulators_control_spec():
+    env = gymnasium.make("xicm/OpenDrawer-v0", obs_mode="state", control_mode="ee_pose")
+    try:
+        spec = env.unwrapped.sim.control_spec()
+        low, high = spec.mode("ee_pose").bounds()
+        np.testing.assert_array_equal(env.action_space.low, low)
+        np.testing.assert_array_equal(env.action_space.high, high)
+        state = env.observation_space["state"]
+        assert set(state.spaces) == {f.name for f in spec.state}  # gymnasium sorts a Dict's keys
+        assert [state[f.name].shape for f in spec.state] == [(f.width,) for f in spec.state]
+    finally:
+        env.close()
