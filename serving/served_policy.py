@@ -19,6 +19,7 @@ from typing import Any
 from xicm.core.build import Run
 from xicm.core.errors import EpisodeFailure
 from xicm.core.seeding import episode_rng
+from xicm.core.spaces import KEY_POSE
 from xicm.core.types import ControlStep
 from xicm.serving.actions import from_actions
 from xicm.serving.observation import observation_from_wire
@@ -37,7 +38,7 @@ class ServedPolicy:
                 "policy": self.run.policy_name,
                 "observes": observes,
                 "observation": "full" if observes else "none",
-                "action_space": getattr(self.policy, "action_space", "key_pose"),
+                "control_mode": getattr(self.policy, "control_mode", KEY_POSE),
             }
         }
 
@@ -61,7 +62,7 @@ class ServedPolicy:
             space = self.step_mode
         if not getattr(self.policy, "observes", True):
             self._follow(actions)
-        return {"actions": chunk, "xicm/action_space": space, "xicm/record": self._record()}
+        return {"actions": chunk, "xicm/control_mode": space, "xicm/record": self._record()}
 
     @cached_property
     def step_mode(self) -> str | None:

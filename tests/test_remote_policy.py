@@ -41,7 +41,7 @@ class Replies:
 def remote(port, spec, timeout_s=10.0, **options):
     client = PolicyClient(server_uri("127.0.0.1", port), timeout_s)
     client.connect()
-    opts = {**dataclasses.asdict(RemotePolicyOptions()), "action_space": "key_pose", "state_key": None, **options}
+    opts = {**dataclasses.asdict(RemotePolicyOptions()), "control_mode": "key_pose", "state_key": None, **options}
     return RemotePolicy(client, opts, spec)
 
 
@@ -101,8 +101,8 @@ def test_a_served_oracle_plays_exactly_the_oracles_episodes(sim):
     served = ServedPolicy(Run(server_sim, OraclePolicy(server_sim), "oracle"))
     server = PolicyServer(served, port=0, metadata=served.metadata()).start()
     try:
-        policy = remote(server.port, sim.control_spec(), action_space="auto", images={})
-        assert policy.observes is False and policy.space == "key_pose"
+        policy = remote(server.port, sim.control_spec(), control_mode="auto", images={})
+        assert policy.observes is False and policy.control_mode == "key_pose"
         for task, episode in (("open_drawer", 0), ("push_buttons", 1)):
             over_the_wire = run_episode(sim, policy, task, 0, episode)
             local = run_episode(sim, OraclePolicy(sim), task, 0, episode)

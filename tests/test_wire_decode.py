@@ -448,7 +448,7 @@ def test_policy_remote_fails_the_step_with_bad_reply_and_the_next_call_is_answer
     # a spec of its own (no simulator here): key poses, and the two proprio fields the request sends
     spec = ControlSpec(modes=(key_pose_mode(((-1, -1, 0), (1, 1, 2))),),
                        state=(layout("joint_positions", range(7), [-3] * 7, [3] * 7), layout("gripper_width", "w", [0], [0.1])))
-    policy = RemotePolicy(client, {**dataclasses.asdict(RemotePolicyOptions()), "action_space": "key_pose"}, spec)
+    policy = RemotePolicy(client, {**dataclasses.asdict(RemotePolicyOptions()), "control_mode": "key_pose"}, spec)
     try:
         with pytest.raises(EpisodeFailure) as failure:
             policy.act(small_observation())

@@ -4,7 +4,7 @@ Each call of `act` sends the mapped observation (camera pictures under the serve
 the state vector, the instruction as the prompt, and "xicm/episode" with task, seed, episode and
 the call's index, which openpi servers ignore) and executes the first `chunk_steps_to_execute`
 rows of the returned chunk. A server that serves an xicm policy (xicm-serve-policy) says at
-connect what it needs and sends: its action space, whether it wants the whole Observation, and
+connect what it needs and sends: its control mode, whether it wants the whole Observation, and
 whether it observes at all (a served oracle does not: nothing is rendered between calls).
 """
 
@@ -35,19 +35,19 @@ class RemotePolicy(Policy):
         self.spec = spec
         meta = client.metadata.get("xicm", {}) if isinstance(client.metadata.get("xicm"), dict) else {}
         modes = spec.mode_names()
-        space = options["action_space"]
+        space = options["control_mode"]
         if space == "auto":
-            space = meta.get("action_space")
+            space = meta.get("control_mode")
             if space not in modes:
                 raise ConfigError(
-                    f"the server at {client.uri} does not say its action space; set policy.action_space to one of {', '.join(modes)}"
+                    f"the server at {client.uri} does not say its control mode; set policy.control_mode to one of {', '.join(modes)}"
                 )
         elif space not in modes:
-            raise ConfigError(f"policy.action_space is '{space}'; the simulator's control modes are {', '.join(modes)}")
+            raise ConfigError(f"policy.control_mode is '{space}'; the simulator's control modes are {', '.join(modes)}")
         unknown = [f for f in options["state"] if f not in [p.name for p in spec.state]]
         if options["state_key"] and unknown:
             raise ConfigError(f"policy.state names {', '.join(unknown)}; the simulator's proprio fields are {', '.join(p.name for p in spec.state)}")
-        self.space = space
+        self.control_mode = space
         self.per_step = spec.mode(space).per_step
         self.full_observation = meta.get("observation") == "full"
         self.observes = bool(meta.get("observes", True))
@@ -87,9 +87,9 @@ class RemotePolicy(Policy):
         failure = reply.get("xicm/failure")
         if isinstance(failure, dict):  # the served policy gave up (xicm-serve-policy)
             raise EpisodeFailure(str(failure.get("kind", "server_error")), str(failure.get("message", "")))
-        space = reply.get("xicm/action_space", self.space)
+        space = reply.get("xicm/control_mode", self.control_mode)
         if space not in self.spec.mode_names():
-            raise EpisodeFailure("bad_reply", f"the server's action space {space!r} is not one of {', '.join(self.spec.mode_names())}")
+            raise EpisodeFailure("bad_reply", f"the server's control mode {space!r} is not one of {', '.join(self.spec.mode_names())}")
         try:
             actions = to_actions(reply["actions"], self.spec.mode(space), o["gripper_open"], o["gripper_closed"])
         except ValueError as exc:
@@ -113,7 +113,7 @@ class RemotePolicy(Policy):
             return list(pool.map(one, zip(peers, observations)))
 
     def run_metadata(self) -> dict:
-        return {"server": self.client.uri, "server_metadata": _jsonable(self.client.metadata), "action_space": self.space}
+        return {"server": self.client.uri, "server_metadata": _jsonable(self.client.metadata), "control_mode": self.control_mode}
 
     def record(self) -> dict:
         return dict(self.last_record)
@@ -133,7 +133,7 @@ class RemotePolicyOptions:
     port: Optional[int] = field(default=8000, metadata=at_least(1))
     timeout_s: float = field(default=30.0, metadata=above(0))  # per request, and for connecting
     api_key: Optional[str] = None
-    action_space: str = "auto"  # auto, or one of the simulator's control modes (checked when built)
+    control_mode: str = "auto"  # auto, or one of the simulator's control modes (checked when built)
     chunk_steps_to_execute: Optional[int] = field(default=None, metadata=at_least(1))  # null: the whole chunk
     # camera -> request key; null: {front: observation/image}. Null in the YAML so that a mapping
     # given on the command line replaces it whole (Hydra merges into an existing mapping)
@@ -152,7 +152,7 @@ def create_remote_policy(
     port: int | None = 8000,
     timeout_s: float = 30.0,
     api_key: str | None = None,
-    action_space: str = "auto",
+    control_mode: str = "auto",
     chunk_steps_to_execute: int | None = None,
     images: Mapping[str, str] | None = None,
     image_size: int | None = None,
@@ -165,7 +165,7 @@ def create_remote_policy(
     from xicm.serving.client import PolicyClient, ServerError, server_uri
 
     options = dict(
-        host=host, port=port, timeout_s=timeout_s, api_key=api_key, action_space=action_space,
+        host=host, port=port, timeout_s=timeout_s, api_key=api_key, control_mode=control_mode,
         chunk_steps_to_execute=chunk_steps_to_execute, images=dict(images or DEFAULT_IMAGES),
         image_size=image_size, state_key=state_key, state=list(state),
         prompt_key=prompt_key, gripper_open=gripper_open, gripper_closed=gripper_closed,
@@ -181,10 +181,10 @@ def create_remote_policy(
     except ConfigError:
         client.close()
         raise
-    if policy.per_step and policy.space != spec.control_mode:
+    if policy.per_step and policy.control_mode != spec.control_mode:
         client.close()
         raise ConfigError(
-            f"policy.action_space is {policy.space} but simulator.control_mode is {spec.control_mode}; per-step actions are stepped in the simulator's control mode"
+            f"policy.control_mode is {policy.control_mode} but simulator.control_mode is {spec.control_mode}; per-step actions are stepped in the simulator's control mode"
         )
     return policy
 
