@@ -41,3 +41,26 @@ def test_a_step_that_raises_on_a_bad_action_is_named(physics, monkeypatch):
     monkeypatch.setattr(physics, "step", strict)
     with pytest.raises(ContractBreach, match=r"step\(\) raised ValueError for a bad action"):
         check_simulator(physics, "open_drawer", render=False, replay=False)
+
+
+def test_a_simulator_in_a_worker_process_keeps_the_contract():
+    """envs=N and xicm-serve-policy drive SimulatorProcess: every contract method crosses the pipe."""
+    from hydra import compose, initialize_config_module
+    from omegaconf import OmegaConf
+
+    from xicm.core.interfaces import Simulator
+    from xicm.core.sim_process import SimulatorProcess
+
+    local_only = {"set_frame_callback"}  # a callback cannot cross a process boundary
+    contract = {n for n, f in vars(Simulator).items() if callable(f) and not n.startswith("_")} - local_only
+    assert contract - set(vars(SimulatorProcess)) == set()
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        cfg = compose("config", overrides=["simulator.image_size=32", "simulator.cameras=[front]", "simulator.control_mode=ee_pose"])
+    cfg.run_name = cfg.tracking.group = "test"  # their ${hydra:...} resolves only inside a Hydra app
+    sim = SimulatorProcess(OmegaConf.to_container(cfg, resolve=True))
+    try:
+        report = check_simulator(sim, "open_drawer", seed=10_000, episode=0)
+        assert report["skipped"] == [] and "record_scripted + replay" in report["checked"]
+        assert sim.control_spec().control_mode == "ee_pose"
+    finally:
+        sim.close()
