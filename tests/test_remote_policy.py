@@ -182,3 +182,22 @@ def test_an_image_mapping_on_the_command_line_replaces_the_default_whole():
         wrist_only = compose("config", overrides=["policy=remote", "policy.images={wrist: observation/wrist_image}"])
     assert dict(two.policy.images) == {"front": "observation.images.front", "wrist": "observation.images.wrist"}
     assert dict(wrist_only.policy.images) == {"wrist": "observation/wrist_image"}
+
+
+@pytest.mark.parametrize(
+    "options, words",
+    [
+        ({"control_mode": "pd_ee_delta_pose"}, "policy.control_mode is 'pd_ee_delta_pose'; the simulator's control modes are ee_delta, ee_pose,"),
+        ({"state_key": "observation/state", "state": ["joint_velocities"]}, "policy.state names joint_velocities; the simulator's proprio fields are joint_positions,"),
+    ],
+)
+def test_a_control_mode_or_state_field_the_simulator_does_not_declare_is_one_sentence(sim, options, words):
+    from xicm.core.errors import ConfigError
+
+    server = PolicyServer(Replies(), port=0).start()
+    try:
+        with pytest.raises(ConfigError) as err:
+            remote(server.port, sim.control_spec(), **options)
+        assert str(err.value).startswith(words) and "\n" not in str(err.value)
+    finally:
+        server.stop()
