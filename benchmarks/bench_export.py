@@ -10,7 +10,7 @@ prints recording and writing rates and dataset bytes per demo. The extrapolation
 the per-task means by demos per task for the 18 seen tasks (10: xicm-export's default; 200:
 the AGNOSTOS pool size). The lerobot env must exist or is built first (not timed). With
 --replay, the dataset is loaded back with LeRobotDataset and every episode's actions are
-replayed through step() in each action space: the success rate per space.
+replayed through step() in each control mode: the success rate per mode.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 2)
     ap.add_argument("--cameras", nargs="+", default=["front", "wrist"])
     ap.add_argument("--tasks", nargs="*", default=None, help="default: the 18 seen tasks")
-    ap.add_argument("--replay", action="store_true", help="also replay the loaded actions in every action space")
+    ap.add_argument("--replay", action="store_true", help="also replay the loaded actions in every control mode")
     args = ap.parse_args()
 
     from hydra import compose, initialize_config_module
@@ -81,15 +81,15 @@ def main() -> None:
 
 
 def replay(cfg, out: Path, staged: list[Path], loaded: Path) -> None:
-    """Replay the actions LeRobotDataset loads, per action space, from each episode's reset."""
+    """Replay the actions LeRobotDataset loads, per control mode, from each episode's reset."""
     from xicm.core.plugins import get_registry
     from xicm.export.dataset_writer import read_dataset
-    from xicm.export.features import ACTION_SPACES
 
     read_dataset(out, cfg.export.repo_id, loaded, cfg.paths.cache)
     data = np.load(loaded)
     episode_of = data["column.episode_index"].reshape(-1)
-    for space in ACTION_SPACES:
+    modes = [key[len("column.action."):] for key in data.files if key.startswith("column.action.")]  # the dataset's own
+    for space in modes:
         sim = get_registry().create_simulator({"name": "sapien", "render": False, "control_mode": space})
         ok = 0
         for n, path in enumerate(staged):

@@ -32,7 +32,7 @@ class JointAction:
 @dataclass(frozen=True)
 class ControlStep:
     """One control period of per-step control (`Simulator.step`): the action vector in the
-    simulator's control mode (simulator.control_mode; layouts in docs/DESIGN.md). A policy
+    simulator's control mode (Simulator.control_spec().step_mode: its columns and bounds). A policy
     returns one, or several as an action chunk."""
 
     values: tuple[float, ...]
@@ -120,7 +120,7 @@ class ControlRecording:
     Index t runs over the T + 1 states: the reset state, then the state after each of the T
     control steps. The targets at index t are the commands in force at the end of control
     period t - 1 (index 0: the hold target at reset); action t of any control mode leads from
-    state t to the targets at t + 1 (plugins' control_modes.actions).
+    state t to the targets at t + 1 (`actions` holds them per per-step control mode).
     """
 
     task: str
@@ -137,6 +137,8 @@ class ControlRecording:
     key_actions: list[KeyAction]
     success: bool
     error: str | None = None  # why the demonstrator stopped early, if it did
+    #: per-step control mode -> (T, width) actions that replay the recording through step()
+    actions: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def steps(self) -> int:

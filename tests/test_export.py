@@ -11,6 +11,7 @@ import pytest
 from hydra import compose, initialize_config_module
 
 from xicm.core.errors import ConfigError
+from xicm.core.spaces import KEY_POSE_NAMES
 from xicm.core.types import KeyAction
 from xicm.export import features as feats
 from xicm.export.job import check_export, export_tasks
@@ -45,13 +46,21 @@ def test_default_task_list_is_the_seen_benchmark():
     assert len(tasks) == 18 and tasks[0] == "close_jar" and "stack_cups" in tasks
 
 
-def test_features_match_the_simulators_action_spaces():
-    from xicm.plugins.simulators.sapien.control_modes import ACTION_DIMS
+def _spec(sim, control_mode):
+    import dataclasses
 
-    assert {k: len(v) for k, v in feats.ACTION_NAMES.items()} == ACTION_DIMS
-    f = feats.features({"front": (64, 64), "wrist": (96, 128)}, "joint_pos", use_videos=True)
+    return dataclasses.replace(sim.control_spec(), control_mode=control_mode)
+
+
+def test_features_are_the_simulators_control_spec(sim):
+    f = feats.features({"front": (64, 64), "wrist": (96, 128)}, _spec(sim, "joint_pos"), use_videos=True)
     assert f["observation.images.wrist"] == {"dtype": "video", "shape": [96, 128, 3], "names": ["height", "width", "channels"]}
-    assert f["action"]["names"] == feats.ACTION_NAMES["joint_pos"] and f["observation.state"]["shape"] == [16]
+    joints = [f"joint_{i}" for i in range(1, 8)]
+    assert f["action"]["names"] == [*joints, "gripper"] and f["observation.state"]["shape"] == [16]
+    assert f["observation.state"]["names"] == [*joints, "gripper_width", "tcp_x", "tcp_y", "tcp_z", "tcp_qw", "tcp_qx", "tcp_qy",
+                                               "tcp_qz", "gripper_open"]
+    assert f["action.ee_delta"]["names"] == ["dx", "dy", "dz", "droll", "dpitch", "dyaw", "gripper"]
+    assert [k for k in f if k.startswith("action.")] == [f"action.{m}" for m in ("ee_delta", "ee_pose", "joint_pos", "joint_delta")]
 
 
 def test_key_action_columns_name_the_key_action_each_step_works_towards():
@@ -67,9 +76,9 @@ def test_key_action_columns_name_the_key_action_each_step_works_towards():
     assert feats.key_frame_rows(cols["key_action.index"].ravel()) == [0, 3]
 
 
-def test_key_frame_features_carry_the_key_pose_and_no_per_step_columns():
-    f = feats.features({"front": (64, 64)}, "joint_pos", use_videos=False, frames="key")
-    assert f["action"]["names"] == feats.KEY_POSE_NAMES and f["key_action.pose"]["shape"] == [8]
+def test_key_frame_features_carry_the_key_pose_and_no_per_step_columns(sim):
+    f = feats.features({"front": (64, 64)}, _spec(sim, "joint_pos"), use_videos=False, frames="key")
+    assert f["action"]["names"] == ["x", "y", "z", "qw", "qx", "qy", "qz", "gripper"] and f["key_action.pose"]["shape"] == [8]
     assert not [k for k in f if k.startswith("action.")] and "key_action.ends_here" not in f
     assert feats.staged_column("action", "joint_pos", "key") == "key_action.pose"
     assert feats.staged_column("action", "joint_pos") == "action.joint_pos"
@@ -130,7 +139,7 @@ def exported(tmp_path_factory):
 
 @pytest.mark.slow
 @needs_lerobot
-def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported):
+def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported, sim):
     import json
 
     cfg, out_dir, report, data, staged = exported
@@ -141,14 +150,14 @@ def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported):
     assert int(data["num_episodes"]) == 4 and int(data["num_frames"]) == sum(steps)
     assert data["tasks"].tolist() == [str(np.load(p)["instruction"]) for p in staged]
     features = json.loads(str(data["features"]))
-    expected = feats.features({"front": (64, 64), "wrist": (64, 64)}, "ee_delta", use_videos=True)
+    expected = feats.features({"front": (64, 64), "wrist": (64, 64)}, _spec(sim, "ee_delta"), use_videos=True)
     assert {k: features[k]["shape"] for k in expected} == {k: v["shape"] for k, v in expected.items()}
     assert (out_dir / "meta" / "info.json").exists() and list((out_dir / "videos").rglob("*.mp4"))
     first = 0
     for n, path in enumerate(staged):
         arrays = np.load(path)
         rows = slice(first, first + steps[n])
-        for space in feats.ACTION_SPACES:
+        for space in sim.control_spec().mode_names(per_step=True):
             np.testing.assert_allclose(data[f"column.action.{space}"][rows], arrays[f"action.{space}"], atol=1e-6)
         np.testing.assert_array_equal(data["column.action"][rows], data["column.action.ee_delta"][rows])
         np.testing.assert_array_equal(data["column.key_action.ints"][rows], arrays["key_action.ints"])
@@ -160,7 +169,7 @@ def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported):
 
 @pytest.mark.slow
 @needs_lerobot
-def test_loaded_actions_replay_to_success_in_the_gymnasium_env_in_every_action_space(exported):
+def test_loaded_actions_replay_to_success_in_the_gymnasium_env_in_every_action_space(exported, sim):
     import gymnasium
 
     from xicm.vla.registration import env_id, register_envs
@@ -169,7 +178,7 @@ def test_loaded_actions_replay_to_success_in_the_gymnasium_env_in_every_action_s
     cfg, _, _, data, staged = exported
     episode_of = data["column.episode_index"].reshape(-1)
     results = []
-    for space in feats.ACTION_SPACES:
+    for space in sim.control_spec().mode_names(per_step=True):
         for task in TASKS:
             env = gymnasium.make(env_id(task), obs_mode="state", control_mode=space)
             try:
@@ -236,7 +245,7 @@ def test_key_frames_of_the_same_staging_load_with_lerobot_and_replay_to_success(
     read_dataset(work, cfg.export.repo_id, loaded, cfg.paths.cache)
     data = dict(np.load(loaded))
     keys = [int(np.load(p)["key_action.index"].max()) + 1 for p in staged]
-    assert int(data["num_frames"]) == sum(keys) and json.loads(str(data["features"]))["action"]["names"] == feats.KEY_POSE_NAMES
+    assert int(data["num_frames"]) == sum(keys) and json.loads(str(data["features"]))["action"]["names"] == list(KEY_POSE_NAMES)
     episode_of = data["column.episode_index"].reshape(-1)
     simulator = get_registry().create_simulator({"name": "sapien", "cameras": ["front"]})
     try:

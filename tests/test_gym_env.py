@@ -57,8 +57,6 @@ class _no_checker_warnings:
 
 
 def test_a_replayed_recording_succeeds_terminates_and_reports_the_instruction():
-    from xicm.plugins.simulators.sapien.control_modes import actions
-
     env = gymnasium.make("xicm/OpenDrawer-v0", obs_mode="state", control_mode="joint_delta")
     try:
         obs, info = env.reset(seed=10_000, options={"episode": 0})
@@ -67,7 +65,7 @@ def test_a_replayed_recording_succeeds_terminates_and_reports_the_instruction():
         sim = env.unwrapped.sim
         rec = sim.record_scripted()
         env.reset(seed=10_000, options={"episode": 0})
-        for t, action in enumerate(actions(rec, "joint_delta")):
+        for t, action in enumerate(rec.actions["joint_delta"]):
             obs, reward, terminated, truncated, info = env.step(action.astype(np.float32))
             if terminated or truncated:
                 break
@@ -161,3 +159,17 @@ def test_async_vector_env_steps_two_different_tasks_in_worker_processes():
         assert np.all(obs["state"]["tcp_pose"][:, 2] < 0.5 - 0.03)  # both arms went down from z = 0.5
     finally:
         envs.close()
+
+
+def test_the_spaces_are_the_simulators_control_spec():
+    env = gymnasium.make("xicm/OpenDrawer-v0", obs_mode="state", control_mode="ee_pose")
+    try:
+        spec = env.unwrapped.sim.control_spec()
+        low, high = spec.mode("ee_pose").bounds()
+        np.testing.assert_array_equal(env.action_space.low, low)
+        np.testing.assert_array_equal(env.action_space.high, high)
+        state = env.observation_space["state"]
+        assert set(state.spaces) == {f.name for f in spec.state}  # gymnasium sorts a Dict's keys
+        assert [state[f.name].shape for f in spec.state] == [(f.width,) for f in spec.state]
+    finally:
+        env.close()

@@ -38,7 +38,7 @@ def served_port(server: subprocess.Popen) -> int:
 
 def serve(tiny_act, max_batch: int = 1):
     python, ckpt, _ = tiny_act
-    server = start(python, CACHE, str(ckpt), port=0, action_space="joint_pos", max_batch=max_batch,
+    server = start(python, CACHE, str(ckpt), port=0, control_mode="joint_pos", max_batch=max_batch,
                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         yield served_port(server)
@@ -56,7 +56,7 @@ def test_served_actions_are_the_in_memory_policys(tiny_act, served):
     _, _, ref = tiny_act
     client = PolicyClient(server_uri("127.0.0.1", served), timeout_s=60)
     meta = client.connect()
-    assert meta["lerobot"]["policy_type"] == "act" and meta["xicm"]["action_space"] == "joint_pos"
+    assert meta["lerobot"]["policy_type"] == "act" and meta["xicm"]["control_mode"] == "joint_pos"
     reply = client.infer({"observation.images.front": ref["image"], "observation.state": ref["state"], "task": "push the button"})
     assert reply["actions"].shape == (5, 8)
     np.testing.assert_array_equal(reply["actions"], ref["chunk"].astype(np.float64))
@@ -129,7 +129,7 @@ def test_a_keyed_lerobot_server_refuses_a_missing_key_and_a_client_over_its_cap(
     python, ckpt, ref = tiny_act
     key = secrets.token_hex(16)
     monkeypatch.setenv("XICM_TEST_LEROBOT_KEY", key)
-    server = start(python, CACHE, str(ckpt), port=0, action_space="joint_pos", stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+    server = start(python, CACHE, str(ckpt), port=0, control_mode="joint_pos", stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                    text=True, limits=("--api-key-env", "XICM_TEST_LEROBOT_KEY", "--max-sessions", "1"))
     try:
         assert key not in " ".join(server.args)

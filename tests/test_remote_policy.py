@@ -38,17 +38,17 @@ class Replies:
         return reply
 
 
-def remote(port, timeout_s=10.0, **options):
+def remote(port, spec, timeout_s=10.0, **options):
     client = PolicyClient(server_uri("127.0.0.1", port), timeout_s)
     client.connect()
-    opts = {**dataclasses.asdict(RemotePolicyOptions()), "action_space": "key_pose", "state_key": None, **options}
-    return RemotePolicy(client, opts)
+    opts = {**dataclasses.asdict(RemotePolicyOptions()), "control_mode": "key_pose", "state_key": None, **options}
+    return RemotePolicy(client, opts, spec)
 
 
 @pytest.mark.parametrize(
     "reply, kind, words",
     [
-        ({"actions": np.zeros((2, 5))}, "bad_reply", "shape (2, 5); action space key_pose needs (N, 8)"),
+        ({"actions": np.zeros((2, 5))}, "bad_reply", "shape (2, 5); control mode key_pose needs (N, 8)"),
         ({"actions": np.full((1, 8), np.nan)}, "bad_reply", "NaN or infinite"),
         ({"act": np.zeros((1, 8))}, "bad_reply", "no 'actions' (keys: act)"),
         (RuntimeError("CUDA out of memory"), "server_error", "RuntimeError: CUDA out of memory"),
@@ -60,7 +60,7 @@ def test_a_bad_reply_fails_the_episode_with_a_reason_and_the_next_one_runs(sim, 
     good = {"actions": np.array([[0.1, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0]])}
     server = PolicyServer(Replies(reply, good), port=0).start()
     try:
-        policy = remote(server.port, timeout_s=1.0)
+        policy = remote(server.port, sim.control_spec(), timeout_s=1.0)
         first = run_episode(sim, policy, TASK, 0, 0, max_steps=1)
         assert (first.success, first.error_kind) == (False, kind) and words in first.error_message
         if kind == "server_timeout":
@@ -81,7 +81,7 @@ def test_the_observation_is_mapped_to_the_servers_keys(sim):
 
     server = PolicyServer(Recorder(), port=0).start()
     try:
-        policy = remote(server.port, images={"front": "observation/image", "wrist": "observation/wrist_image"}, image_size=64,
+        policy = remote(server.port, sim.control_spec(), images={"front": "observation/image", "wrist": "observation/wrist_image"}, image_size=64,
                         state_key="observation/state", state=["joint_positions", "gripper_width"])
         run_episode(sim, policy, TASK, 0, 0, max_steps=1)
     finally:
@@ -101,8 +101,8 @@ def test_a_served_oracle_plays_exactly_the_oracles_episodes(sim):
     served = ServedPolicy(Run(server_sim, OraclePolicy(server_sim), "oracle"))
     server = PolicyServer(served, port=0, metadata=served.metadata()).start()
     try:
-        policy = remote(server.port, action_space="auto", images={})
-        assert policy.observes is False and policy.space == "key_pose"
+        policy = remote(server.port, sim.control_spec(), control_mode="auto", images={})
+        assert policy.observes is False and policy.control_mode == "key_pose"
         for task, episode in (("open_drawer", 0), ("push_buttons", 1)):
             over_the_wire = run_episode(sim, policy, task, 0, episode)
             local = run_episode(sim, OraclePolicy(sim), task, 0, episode)
@@ -182,3 +182,22 @@ def test_an_image_mapping_on_the_command_line_replaces_the_default_whole():
         wrist_only = compose("config", overrides=["policy=remote", "policy.images={wrist: observation/wrist_image}"])
     assert dict(two.policy.images) == {"front": "observation.images.front", "wrist": "observation.images.wrist"}
     assert dict(wrist_only.policy.images) == {"wrist": "observation/wrist_image"}
+
+
+@pytest.mark.parametrize(
+    "options, words",
+    [
+        ({"control_mode": "pd_ee_delta_pose"}, "policy.control_mode is 'pd_ee_delta_pose'; the simulator's control modes are ee_delta, ee_pose,"),
+        ({"state_key": "observation/state", "state": ["joint_velocities"]}, "policy.state names joint_velocities; the simulator's proprio fields are joint_positions,"),
+    ],
+)
+def test_a_control_mode_or_state_field_the_simulator_does_not_declare_is_one_sentence(sim, options, words):
+    from xicm.core.errors import ConfigError
+
+    server = PolicyServer(Replies(), port=0).start()
+    try:
+        with pytest.raises(ConfigError) as err:
+            remote(server.port, sim.control_spec(), **options)
+        assert str(err.value).startswith(words) and "\n" not in str(err.value)
+    finally:
+        server.stop()

@@ -10,6 +10,7 @@ import sapien
 from xicm.core.errors import EpisodeFailure
 from xicm.core.interfaces import Simulator
 from xicm.core.seeding import episode_rng
+from xicm.core.spaces import ControlSpec
 from xicm.core.types import (
     ControlRecording,
     JointAction,
@@ -20,12 +21,12 @@ from xicm.core.types import (
     Trajectory,
 )
 
-from . import control_modes
+from . import control_modes, spec
 from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
 from .grasp import GraspAttacher
 from .objects import ObjectSet
-from .options import CONTROL_MODES, GRASP_MODES, SCENE_RANGES, SUCCESS_CHECKS, frames_per_step, sizes_per_camera
+from .options import GRASP_MODES, SCENE_RANGES, SUCCESS_CHECKS, frames_per_step, sizes_per_camera
 from .robot import ARM_JOINTS
 from .scene import TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
@@ -225,8 +226,12 @@ class SapienSimulator(Simulator):
             proprio=self.proprio(),
         )
 
+    def instruction(self) -> str:
+        self._require_task()
+        return self.task.episode_instruction
+
     def proprio(self) -> dict[str, np.ndarray]:
-        """joint_positions (7), gripper_width (1, m), tcp_pose (7, base frame), gripper_open (1)."""
+        """joint_positions (7), gripper_width (1, m), tcp_pose (7, base frame), gripper_open (1): spec.STATE."""
         self._require_task()
         return {
             "joint_positions": self.robot.arm_qpos(),
@@ -320,8 +325,8 @@ class SapienSimulator(Simulator):
             self.controller.success_check = watch
 
     # --- per-step control -------------------------------------------------------------------
-    def control_modes(self) -> tuple[str, ...]:
-        return CONTROL_MODES
+    def control_spec(self) -> ControlSpec:
+        return spec.control_spec(self.robot.qlimits, self.robot.base_pose.p, self.workspace, self.control_mode, self.control_hz)
 
     def step(self, action) -> StepOutcome:
         """One control period (frame_hz / control_hz frames) towards `action` in control_mode."""
@@ -420,7 +425,7 @@ class SapienSimulator(Simulator):
             self.set_frame_callback(None)
         joints = np.array(rows["joint"])
         tcp = np.array([self.robot.in_base(self.robot.tcp_pose_at(q)) for q in joints])
-        return ControlRecording(
+        recording = ControlRecording(
             task=self.task_name,
             seed=self.seed,
             episode=self.episode,
@@ -436,6 +441,8 @@ class SapienSimulator(Simulator):
             success=error is None and self.is_success(),
             error=error,
         )
+        recording.actions = {mode: control_modes.actions(recording, mode) for mode in control_modes.ACTION_DIMS}
+        return recording
 
     def set_frame_callback(self, callback) -> bool:
         """Call `callback()` after every frame (after the task's own frame hook); for
