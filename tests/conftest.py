@@ -1,5 +1,9 @@
-"""Shared fixtures. The SAPIEN simulator is expensive to start (first render compiles
-shaders), so tests that need one share a session-wide instance."""
+"""Shared fixtures; the plugins for the file order (file_order.py) and the strict-skip rule (strict_skips.py).
+
+Lanes (markers in pyproject.toml): `pytest -m "not slow"` is the developer's fast lane;
+`bash scripts/test.sh` (CI) runs everything. XICM_TEST_ORDER=reverse (or --reverse-files) runs
+the files in reverse order, each file's tests in their own order: no test may depend on another
+file's having run first."""
 
 import os
 
@@ -9,18 +13,37 @@ os.environ.setdefault("WANDB_MODE", "disabled")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
 
+pytest_plugins = ["file_order", "strict_skips", "pytester"]
 
-@pytest.fixture(scope="session")
-def sim():
+#: per-test limit of the tests that build an isolated environment (pyproject's `timeout` is for the rest):
+#: a lerobot environment built from nothing takes ~10 min, and a test may train in it afterwards
+VENV_TIMEOUT_S = 1800
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.get_closest_marker("venv") and not item.get_closest_marker("timeout"):
+            item.add_marker(pytest.mark.timeout(VENV_TIMEOUT_S))
+
+
+def _sapien(**options):
     from xicm.core.plugins import get_registry
 
-    simulator = get_registry().create_simulator({"name": "sapien", "image_size": 128})
+    return get_registry().create_simulator({"name": "sapien", "image_size": 128, **options})
+
+
+@pytest.fixture
+def sim():
+    """A fresh SAPIEN simulator for each test, so no test sees the physics another left behind
+    (a PhysX scene that has loaded and removed other tasks' objects steps differently). Cheap:
+    only a process's first render compiles shaders (~7 s); later simulators build in ~0.1 s."""
+    simulator = _sapien()
     yield simulator
     simulator.close()
 
 
 @pytest.fixture(scope="session")
-def smoke_pool(sim, tmp_path_factory):
+def smoke_pool(tmp_path_factory):
     """Two scripted demos of each seen smoke task, collected with the real simulator."""
     from xicm.core.collect import collect
     from xicm.core.dataset import load_pool
@@ -28,6 +51,20 @@ def smoke_pool(sim, tmp_path_factory):
 
     path = tmp_path_factory.mktemp("pool") / "smoke.h5"
     detector = get_registry().create("detector", {"name": "oracle"})
-    counts = collect(sim, detector, ["open_drawer", "push_buttons"], 2, seed=10_000, out_path=path, progress=False)
+    simulator = _sapien()
+    try:
+        counts = collect(simulator, detector, ["open_drawer", "push_buttons"], 2, seed=10_000, out_path=path, progress=False)
+    finally:
+        simulator.close()
     assert all(ok == 2 for ok, _ in counts.values()), counts
     return path, load_pool(path)
+
+
+@pytest.fixture(scope="session")
+def tiny_gemma_dir(tmp_path_factory):
+    """One tiny random Gemma 3 folder (tiny_gemma.py) for every LLM test module of the session."""
+    pytest.importorskip("torch")
+    pytest.importorskip("transformers")
+    from tiny_gemma import write_tiny_gemma
+
+    return write_tiny_gemma(tmp_path_factory.mktemp("tiny-gemma") / "tiny-gemma3")
