@@ -26,24 +26,32 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.timeout(VENV_TIMEOUT_S))
 
 
-def _sapien(**options):
+@pytest.fixture(scope="session")
+def sim():
+    """One rendering SAPIEN simulator for the session (a process's first render compiles shaders,
+    ~7 s, and pictures of a new scene cost more): for tests that render or do not depend on what
+    the physics did before. Physics-exact tests take `physics_sim`."""
     from xicm.core.plugins import get_registry
 
-    return get_registry().create_simulator({"name": "sapien", "image_size": 128, **options})
+    simulator = get_registry().create_simulator({"name": "sapien", "image_size": 128})
+    yield simulator
+    simulator.close()
 
 
 @pytest.fixture
-def sim():
-    """A fresh SAPIEN simulator for each test, so no test sees the physics another left behind
-    (a PhysX scene that has loaded and removed other tasks' objects steps differently). Cheap:
-    only a process's first render compiles shaders (~7 s); later simulators build in ~0.1 s."""
-    simulator = _sapien()
+def physics_sim():
+    """A fresh physics-only SAPIEN simulator (render=False, ~0.02 s to build) for each test whose
+    outcome is exact physics: a PhysX scene that has loaded and removed other tasks' objects
+    steps differently, so a shared one made such tests depend on which tests ran before."""
+    from xicm.core.plugins import get_registry
+
+    simulator = get_registry().create_simulator({"name": "sapien", "render": False})
     yield simulator
     simulator.close()
 
 
 @pytest.fixture(scope="session")
-def smoke_pool(tmp_path_factory):
+def smoke_pool(sim, tmp_path_factory):
     """Two scripted demos of each seen smoke task, collected with the real simulator."""
     from xicm.core.collect import collect
     from xicm.core.dataset import load_pool
@@ -51,11 +59,7 @@ def smoke_pool(tmp_path_factory):
 
     path = tmp_path_factory.mktemp("pool") / "smoke.h5"
     detector = get_registry().create("detector", {"name": "oracle"})
-    simulator = _sapien()
-    try:
-        counts = collect(simulator, detector, ["open_drawer", "push_buttons"], 2, seed=10_000, out_path=path, progress=False)
-    finally:
-        simulator.close()
+    counts = collect(sim, detector, ["open_drawer", "push_buttons"], 2, seed=10_000, out_path=path, progress=False)
     assert all(ok == 2 for ok, _ in counts.values()), counts
     return path, load_pool(path)
 

@@ -76,6 +76,8 @@ def test_an_unreachable_cluster_address_fails_at_once():
     assert not ray.is_initialized()
 
 
+@pytest.mark.slow
+@pytest.mark.ray
 def test_a_worker_that_cannot_build_stops_the_run_with_its_reason_and_the_cluster_is_shut_down():
     ray = pytest.importorskip("ray")
     config = {"simulator": {"name": "no_such_simulator"}, "max_steps": 3}
