@@ -1,4 +1,5 @@
-"""Shared fixtures; the plugins for the file order (file_order.py) and the strict-skip rule (strict_skips.py).
+"""Shared fixtures; plugins for the lanes' markers (lanes.py), the file order (file_order.py) and
+the strict-skip rule (strict_skips.py).
 
 Lanes (markers in pyproject.toml): `pytest -m "not slow"` is the developer's fast lane;
 `bash scripts/test.sh` (CI) runs everything. XICM_TEST_ORDER=reverse (or --reverse-files) runs
@@ -13,17 +14,7 @@ os.environ.setdefault("WANDB_MODE", "disabled")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
 
-pytest_plugins = ["file_order", "strict_skips", "pytester"]
-
-#: per-test limit of the tests that build an isolated environment (pyproject's `timeout` is for the rest):
-#: a lerobot environment built from nothing takes ~10 min, and a test may train in it afterwards
-VENV_TIMEOUT_S = 1800
-
-
-def pytest_collection_modifyitems(config, items):
-    for item in items:
-        if item.get_closest_marker("venv") and not item.get_closest_marker("timeout"):
-            item.add_marker(pytest.mark.timeout(VENV_TIMEOUT_S))
+pytest_plugins = ["lanes", "file_order", "strict_skips", "pytester"]
 
 
 @pytest.fixture(scope="session")

@@ -1,5 +1,6 @@
-"""The suite's own plugins, the strict-skip rule (strict_skips.py) and the reverse file order
-(file_order.py), each run on a small suite of its own in a pytest run inside this one (pytester)."""
+"""The suite's own plugins, the lanes' rules (lanes.py), the strict-skip rule (strict_skips.py) and
+the reverse file order (file_order.py), each run on a small suite of its own in a pytest run
+inside this one (pytester)."""
 
 import pytest
 
@@ -49,3 +50,18 @@ def test_reverse_order_runs_the_files_backwards_each_in_its_own_order(pytester, 
     pytester.runpytest("-p", "file_order", "--reverse-files", "--collect-only", "-q").stdout.fnmatch_lines(backward)
     monkeypatch.setenv("XICM_TEST_ORDER", "reverse")
     pytester.runpytest("-p", "file_order", "--collect-only", "-q").stdout.fnmatch_lines(backward)
+
+
+def test_a_slow_test_must_say_what_makes_it_slow(pytester):
+    pytester.makepyprojecttoml(
+        '[tool.pytest.ini_options]\nmarkers = ["slow: not in the fast lane", "venv: builds an environment"]\n'
+    )
+    pytester.makepyfile(test_lane="import pytest\n\n@pytest.mark.slow\ndef test_unexplained():\n    pass\n")
+    result = pytester.runpytest("-p", "lanes", "--strict-markers")
+    assert result.ret == pytest.ExitCode.USAGE_ERROR
+    result.stderr.fnmatch_lines(["*slow tests must also carry what makes them slow (venv)*test_unexplained*"])
+    pytester.makepyfile(test_lane="import pytest\n\n@pytest.mark.slow\n@pytest.mark.venv\ndef test_explained():\n    pass\n")
+    items, _ = pytester.inline_genitems("-p", "lanes", "--strict-markers")
+    from lanes import VENV_TIMEOUT_S
+
+    assert [i.name for i in items] == ["test_explained"] and items[0].get_closest_marker("timeout").args == (VENV_TIMEOUT_S,)
