@@ -241,6 +241,8 @@ def test_a_transformers_text_encoder_from_a_local_folder(tmp_path):
         text_encoder({"kind": "clip-magic"})
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_the_leave_one_task_out_benchmark_reports_sources_and_agreement(trained, pool, tmp_path):
     import subprocess
     import sys

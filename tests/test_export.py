@@ -138,6 +138,7 @@ def exported(tmp_path_factory):
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
 def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported, sim):
     import json
@@ -168,6 +169,7 @@ def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported, si
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
 def test_loaded_actions_replay_to_success_in_the_gymnasium_env_in_every_action_space(exported, sim):
     import gymnasium
@@ -199,6 +201,7 @@ def test_loaded_actions_replay_to_success_in_the_gymnasium_env_in_every_action_s
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
 def test_a_partial_export_resumes_recording_only_what_is_missing(exported, monkeypatch, tmp_path):
     import shutil
@@ -225,6 +228,7 @@ def test_a_partial_export_resumes_recording_only_what_is_missing(exported, monke
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
 def test_key_frames_of_the_same_staging_load_with_lerobot_and_replay_to_success(exported, monkeypatch, tmp_path):
     """export.frames=key writes the staged demos again, without recording anything, as one frame
@@ -261,6 +265,7 @@ def test_key_frames_of_the_same_staging_load_with_lerobot_and_replay_to_success(
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
 def test_lerobot_trains_on_the_export_and_writes_a_servable_checkpoint(exported, tmp_path):
     """xicm-train-lerobot runs lerobot's own training script on the exported dataset (2 steps

@@ -135,6 +135,8 @@ print(info["instruction"], "|", h.hexdigest())
 """
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_reset_gives_the_same_observation_bytes_in_two_processes():
     runs = [subprocess.run([sys.executable, "-c", RESET_DIGEST], capture_output=True, text=True, timeout=300) for _ in range(2)]
     outputs = [r.stdout.strip().splitlines()[-1] for r in runs]
@@ -142,6 +144,8 @@ def test_reset_gives_the_same_observation_bytes_in_two_processes():
     assert outputs[0] == outputs[1] and len(outputs[0].split("|")[1].strip()) == 64
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_async_vector_env_steps_two_different_tasks_in_worker_processes():
     from gymnasium.vector import AsyncVectorEnv
 

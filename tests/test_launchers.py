@@ -30,6 +30,7 @@ def test_launcher_configs_compose(launcher, target):
 
 
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_joblib_multirun_runs_two_jobs_and_the_report_reads_them(tmp_path):
     pytest.importorskip("hydra_plugins.hydra_joblib_launcher")
     # A long extra key makes each job's folder name longer than xicm_dirname's limit: the names

@@ -11,7 +11,7 @@ from xicm.core.isolated_env import EnvSpec, env_python
 from xicm.serving.server import PolicyServer
 from xicm.serving.wire import unpack
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.venv]
 
 OPENPI_CLIENT = EnvSpec(
     name="openpi-client",

@@ -1,6 +1,8 @@
 import tomllib
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -33,6 +35,8 @@ def test_default_plugins_name_existing_modules_and_are_not_also_entry_points():
         assert (ROOT / f"{rel}.py").exists() or (ROOT / rel / "__init__.py").exists(), module
 
 
+@pytest.mark.slow
+@pytest.mark.pip
 def test_a_wheel_install_carries_configs_assets_and_plugins(tmp_path):
     """Build the wheel, install it into a bare folder and compose the config from there."""
     import subprocess

@@ -76,6 +76,8 @@ def test_an_unreachable_cluster_address_fails_at_once():
     assert not ray.is_initialized()
 
 
+@pytest.mark.slow
+@pytest.mark.ray
 def test_a_worker_that_cannot_build_stops_the_run_with_its_reason_and_the_cluster_is_shut_down():
     ray = pytest.importorskip("ray")
     config = {"simulator": {"name": "no_such_simulator"}, "max_steps": 3}
@@ -85,6 +87,7 @@ def test_a_worker_that_cannot_build_stops_the_run_with_its_reason_and_the_cluste
 
 
 @pytest.mark.slow
+@pytest.mark.ray
 def test_ray_oracle_run_matches_a_local_run_and_resumes_a_partial_file(tmp_path):
     common = ["policy=oracle", "benchmark=smoke", "episodes=2", f"paths.data={tmp_path}/nothing", "progress=false",
               "tracking.mode=disabled"]
@@ -115,6 +118,7 @@ def test_ray_oracle_run_matches_a_local_run_and_resumes_a_partial_file(tmp_path)
 
 
 @pytest.mark.slow
+@pytest.mark.ray
 def test_ray_nearest_demo_run_matches_a_local_run(smoke_pool, tmp_path):
     pool_path, _ = smoke_pool
     common = ["llm=nearest_demo", "retriever=random", "policy.k=2", "benchmark=smoke", "episodes=1",
@@ -147,6 +151,7 @@ def register_policies(register):
 
 
 @pytest.mark.slow
+@pytest.mark.ray
 def test_the_ray_driver_builds_no_policy_only_its_workers_do(tmp_path):
     """A throwaway policy plugin notes the pid of every process that builds it."""
     site = tmp_path / "site"

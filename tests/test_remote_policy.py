@@ -117,6 +117,7 @@ BIN = Path(sys.executable).parent
 
 
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_eval_against_xicm_serve_policy_and_against_nothing(tmp_path):
     port = free_port()
     common = ["benchmark.tasks=[push_buttons]", "episodes=2", "progress=false", f"paths.cache={tmp_path}/cache"]
