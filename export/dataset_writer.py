@@ -32,6 +32,8 @@ def write_dataset(
     log=print,
 ) -> None:
     """`episode_metadata`: per episode, extra columns of meta/episodes (xicm.export.provenance)."""
+    if episode_metadata is not None and len(episode_metadata) != len(episodes):
+        raise ValueError(f"{len(episode_metadata)} rows of episode metadata for {len(episodes)} episodes")
     python = env_python(cache, log)
     features = feats.features(sizes, spec, use_videos, frames)
     rows = None  # every staged row is a frame; key frames keep each key action's first step

@@ -16,10 +16,14 @@ LeRobot v3 keeps one row per episode there and names its own columns by source (
 from __future__ import annotations
 
 import json
+import numbers
 from dataclasses import dataclass
 from typing import Any
 
 PREFIX = "scene/"
+#: the columns after the prefix, with the type each holds (simulator_options: JSON text of an object)
+FIELDS = (("task", str), ("seed", int), ("episode", int), ("variation", int), ("simulator", str), ("simulator_options", dict))
+_KIND_WORDS = {str: "a string", int: "an integer", dict: "a JSON object"}
 
 
 @dataclass(frozen=True)
@@ -33,34 +37,30 @@ class Provenance:
 
     def columns(self) -> dict[str, Any]:
         """The episode's row of meta/episodes (JSON-safe scalars)."""
-        return {
-            f"{PREFIX}task": self.task,
-            f"{PREFIX}seed": int(self.seed),
-            f"{PREFIX}episode": int(self.episode),
-            f"{PREFIX}variation": int(self.variation),
-            f"{PREFIX}simulator": self.simulator,
-            f"{PREFIX}simulator_options": json.dumps(self.simulator_options, sort_keys=True),
-        }
+        row = {f"{PREFIX}{name}": kind(getattr(self, name)) for name, kind in FIELDS if kind is not dict}
+        return {**row, f"{PREFIX}simulator_options": json.dumps(self.simulator_options, sort_keys=True)}
 
     @classmethod
     def from_row(cls, row: dict[str, Any]) -> "Provenance":
         """From one episode's metadata as LeRobot reads it (`dataset.meta.episodes[i]`)."""
-        missing = [k for k in cls.column_names() if k not in row]
+        missing = [k for k in column_names() if k not in row]
         if missing:
             raise ValueError(f"the episode metadata has no {', '.join(missing)}: not an xicm export, or one "
                              "written before the scene was recorded")
-        return cls(
-            task=str(row[f"{PREFIX}task"]),
-            seed=int(row[f"{PREFIX}seed"]),
-            episode=int(row[f"{PREFIX}episode"]),
-            variation=int(row[f"{PREFIX}variation"]),
-            simulator=str(row[f"{PREFIX}simulator"]),
-            simulator_options=json.loads(row[f"{PREFIX}simulator_options"]),
-        )
-
-    @staticmethod
-    def column_names() -> list[str]:
-        return [f"{PREFIX}{name}" for name in ("task", "seed", "episode", "variation", "simulator", "simulator_options")]
+        values: dict[str, Any] = {}
+        for name, kind in FIELDS:
+            value = row[f"{PREFIX}{name}"]
+            if kind is dict and isinstance(value, str):
+                try:
+                    value = json.loads(value)
+                except ValueError:
+                    pass  # named below
+            expected = numbers.Integral if kind is int else kind  # numpy's integers too
+            if not isinstance(value, expected) or isinstance(value, bool):
+                raise ValueError(f"the episode metadata's {PREFIX}{name} must be {_KIND_WORDS[kind]}, "
+                                 f"not {str(value)[:80]!r}")
+            values[name] = kind(value)
+        return cls(**values)
 
     def env_kwargs(self, obs_mode: str = "rgb") -> dict[str, Any]:
         """gymnasium.make(env_id(task), **these) builds the simulator the episode was recorded in
@@ -71,6 +71,7 @@ class Provenance:
         for key in ("control_mode", "cameras", "image_size"):
             if key in options:
                 kwargs[key] = options.pop(key)
+        # the Simulator's sample_variations (core/interfaces.py): XicmEnv sets it from `variations`
         kwargs["variations"] = "sampled" if options.pop("sample_variations", True) else "zero"
         kwargs["simulator_options"] = options
         return kwargs
@@ -78,6 +79,10 @@ class Provenance:
     def reset_kwargs(self) -> dict[str, Any]:
         """env.reset(**these) loads the episode's scene."""
         return {"seed": self.seed, "options": {"episode": self.episode}}
+
+
+def column_names() -> list[str]:
+    return [f"{PREFIX}{name}" for name, _ in FIELDS]
 
 
 def from_dump(loaded: dict) -> list[Provenance]:

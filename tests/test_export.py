@@ -85,13 +85,13 @@ def test_key_frame_features_carry_the_key_pose_and_no_per_step_columns(sim):
 
 
 def test_provenance_columns_round_trip_and_rebuild_the_envs_arguments():
-    from xicm.export.provenance import Provenance
+    from xicm.export.provenance import Provenance, column_names
 
     options = {"cameras": ["front"], "image_size": 64, "control_mode": "joint_pos", "render": True,
                "sample_variations": False, "scenes": "rlbench"}
     scene = Provenance("close_jar", 10_000, 3, 1, "sapien", options)
     row = {"episode_index": 0, "data/chunk_index": 0, **scene.columns()}  # beside lerobot's own columns
-    assert sorted(scene.columns()) == sorted(Provenance.column_names())
+    assert sorted(scene.columns()) == sorted(column_names())
     assert all(k.startswith("scene/") for k in scene.columns()) and Provenance.from_row(row) == scene
     assert scene.env_kwargs(obs_mode="state") == {
         "obs_mode": "state", "simulator": "sapien", "control_mode": "joint_pos", "cameras": ["front"], "image_size": 64,
@@ -99,6 +99,14 @@ def test_provenance_columns_round_trip_and_rebuild_the_envs_arguments():
     assert scene.reset_kwargs() == {"seed": 10_000, "options": {"episode": 3}}
     with pytest.raises(ValueError, match=r"^the episode metadata has no scene/task, scene/seed, .*scene/simulator_options: "):
         Provenance.from_row({"episode_index": 0})
+    assert Provenance.from_row({**row, "scene/seed": np.int64(10_000)}) == scene  # numpy's integers (pandas rows)
+    for column, value, words in [("scene/seed", "10000", "scene/seed must be an integer, not '10000'"),
+                                 ("scene/variation", True, "scene/variation must be an integer, not 'True'"),
+                                 ("scene/simulator_options", "{not json", "scene/simulator_options must be a JSON object, not '{not json'"),
+                                 ("scene/simulator_options", "[1]", "scene/simulator_options must be a JSON object, not '[1]'")]:
+        with pytest.raises(ValueError) as err:
+            Provenance.from_row({**row, column: value})
+        assert str(err.value) == f"the episode metadata's {words}", err.value
 
 
 def test_cli_bad_input_prints_one_sentence_and_no_traceback(tmp_path):
