@@ -64,6 +64,11 @@ class Simulator(ABC):
         """The current episode's instruction (its variation's wording). Default: from observe()."""
         return self.observe(cameras=[]).instruction
 
+    def variation(self) -> int:
+        """The current episode's task variation (0, 1, ...: which instruction and targets it
+        drew). Default: 0, for simulators with one variation per task."""
+        return 0
+
     def proprio(self) -> dict[str, np.ndarray]:
         """The robot's state now, laid out as control_spec().state (what Observation.proprio
         holds). Default: from observe()."""

@@ -84,6 +84,9 @@ class SimulatorProcess(Simulator):
     def instruction(self):
         return self._call("instruction")
 
+    def variation(self):
+        return self._call("variation")
+
     def observe(self, cameras=None):
         return self._call("observe", cameras)
 

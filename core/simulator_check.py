@@ -118,10 +118,13 @@ def _check_same_scene(sim: Simulator, task: str, seed: int, episode: int, render
     else:
         sim.reset_state(task, seed, episode)
         first, words = {k: np.array(v) for k, v in sim.proprio().items()}, sim.instruction()
+    variation = sim.variation()
+    _require(isinstance(variation, int) and variation >= 0, f"variation() must return an int >= 0, not {variation!r}")
     sim.reset_state(task, seed, episode)
     again = sim.proprio()
     _check_proprio(again, spec, "proprio()")
     _require(sim.instruction() == words, "reset_state() and reset() of the same episode give different instructions")
+    _require(sim.variation() == variation, "reset_state() and reset() of the same episode give different variations")
     _require(set(again) == set(first) and all(np.array_equal(again[k], first[k]) for k in first),
              "the same (task, seed, episode) gives different robot states")
     _require(isinstance(sim.is_success(), bool), "is_success() must return a bool")

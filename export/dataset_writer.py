@@ -28,8 +28,12 @@ def write_dataset(
     frames: str = "control",
     vcodec: str,
     cache: str | Path,
+    episode_metadata: list[dict] | None = None,
     log=print,
 ) -> None:
+    """`episode_metadata`: per episode, extra columns of meta/episodes (xicm.export.provenance)."""
+    if episode_metadata is not None and len(episode_metadata) != len(episodes):
+        raise ValueError(f"{len(episode_metadata)} rows of episode metadata for {len(episodes)} episodes")
     python = env_python(cache, log)
     features = feats.features(sizes, spec, use_videos, frames)
     rows = None  # every staged row is a frame; key frames keep each key action's first step
@@ -54,6 +58,7 @@ def write_dataset(
             "image_writer_threads": min(4, os.cpu_count() or 1),
             "episodes": [str(p) for p in episodes],
             "rows": rows,
+            "episode_metadata": episode_metadata,
         }
         write_json_atomic(manifest_path, manifest)
         run_script(python, "lerobot_writer.py", str(manifest_path))

@@ -20,7 +20,8 @@ from xicm.core.config_schema import XicmConfig
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import get_registry
 from xicm.core.schema import check_config
-from xicm.export.staging import Staging
+from xicm.export.provenance import Provenance
+from xicm.export.staging import Staging, staged_scene
 
 
 def export_tasks(cfg: DictConfig) -> list[str]:
@@ -70,7 +71,7 @@ def run_export(cfg: DictConfig) -> dict:
     settings = {  # what staged episodes depend on: resuming with other values would mix them
         "simulator": {k: v for k, v in options.items() if k != "control_mode"},
         "seed": int(ex.seed),
-        "columns": 2,  # version of the staged arrays (2: with key_action.pose)
+        "columns": 3,  # version of the staged arrays (2: with key_action.pose, 3: with the scene's variation)
     }
     staging = Staging(out_dir.with_name(f"{out_dir.name}.staging"), settings)
     workers = resolve_workers(ex.workers)
@@ -88,11 +89,13 @@ def run_export(cfg: DictConfig) -> dict:
         raise ConfigError(f"no scripted demo of {', '.join(tasks)} succeeded: nothing to export")
     from xicm.export.dataset_writer import dataset_size, write_dataset
 
+    recorded_in = {k: v for k, v in options.items() if k != "name"}
+    provenance = [Provenance(*staged_scene(p), options["name"], recorded_in).columns() for p in episodes]
     start = time.perf_counter()
     write_dataset(
         out_dir, episodes, repo_id=str(ex.repo_id), fps=int(fps), sizes=recorders.facts["sizes"],
         spec=spec, use_videos=bool(ex.use_videos), frames=str(ex.frames),
-        vcodec=str(ex.vcodec), cache=cfg.paths.cache,
+        vcodec=str(ex.vcodec), cache=cfg.paths.cache, episode_metadata=provenance,
     )
     written = time.perf_counter() - start
     size = dataset_size(out_dir)

@@ -23,6 +23,7 @@ class NoDemo(Exception):
 def record_episode(simulator: Simulator, task: str, seed: int, episode: int, cameras: list[str]) -> StagedEpisode:
     spec = simulator.control_spec()
     simulator.reset(task, seed, episode)
+    variation = simulator.variation()
     recording = simulator.record_scripted(cameras=list(cameras))
     if not recording.success:
         raise NoDemo("the scripted demonstration did not succeed")
@@ -40,7 +41,7 @@ def record_episode(simulator: Simulator, task: str, seed: int, episode: int, cam
         axis=1,
     )
     arrays.update(key_action_columns(recording.key_action_steps, recording.key_actions, steps, simulator.workspace))
-    return StagedEpisode(task, int(seed), int(episode), recording.instruction, arrays)
+    return StagedEpisode(task, int(seed), int(episode), recording.instruction, variation, arrays)
 
 
 def key_action_columns(key_steps, key_actions, steps: int, workspace) -> dict[str, np.ndarray]:

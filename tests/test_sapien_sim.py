@@ -293,3 +293,21 @@ def test_wrist_camera_rides_on_the_hand(sim):
     assert sim.execute(target).ok
     after = sim.observe().cameras["wrist"].cam_to_world
     np.testing.assert_allclose(after[:3, 3] - before[:3, 3], [0.1, 0.0, -0.1], atol=0.01)
+
+
+def test_variation_names_the_variation_reset_drew(sim):
+    """close_jar's variation is the target jar's colour: sampled per (seed, task, episode), the
+    instruction names that colour; with sample_variations off every episode is variation 0."""
+    drawn = {}
+    for episode in range(6):
+        sim.reset_state("close_jar", 10_000, episode)
+        drawn[episode] = (sim.variation(), sim.instruction())
+    assert len({v for v, _ in drawn.values()}) > 1, drawn
+    assert all(len({words for v2, words in drawn.values() if v2 == v}) == 1 for v, _ in drawn.values()), drawn
+    sim.sample_variations = False
+    try:
+        for episode in drawn:
+            sim.reset_state("close_jar", 10_000, episode)
+            assert sim.variation() == 0
+    finally:
+        sim.sample_variations = True

@@ -2,8 +2,9 @@
 
 reset(seed=s, options={"episode": e}) loads the benchmark's scene (s, e): the same scene
 xicm-eval evaluates as seed s, episode e (seed None: drawn from the env's generator; episode
-default 0). Observations: {"state": proprio} plus, for obs_mode "rgb", {"rgb": {camera: HxWx3}}
-(and "depth" for "rgbd"). The reward is 1.0 on the step that succeeds; terminated on success,
+default 0); its info names the scene (instruction, seed, episode, variation). Observations:
+{"state": proprio} plus, for obs_mode "rgb", {"rgb": {camera: HxWx3}} (and "depth" for
+"rgbd"). The reward is 1.0 on the step that succeeds; terminated on success,
 truncated after max_control_steps (the task's default unless given). A step the simulator
 refuses (unreachable, bad action) leaves the state as it was and says why in
 info["error_kind"] / info["error_message"].
@@ -103,7 +104,9 @@ class XicmEnv(gymnasium.Env):
         self.sim.reset_state(self.task, scene_seed, episode)
         self.instruction = self.sim.instruction()
         self._steps = 0
-        return self._observe(), {"instruction": self.instruction, "seed": scene_seed, "episode": episode, "success": False}
+        info = {"instruction": self.instruction, "seed": scene_seed, "episode": episode, "variation": self.sim.variation(),
+                "success": False}
+        return self._observe(), info
 
     def step(self, action):
         outcome = self.sim.step(np.asarray(action, dtype=np.float64))

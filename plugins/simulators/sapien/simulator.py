@@ -230,6 +230,10 @@ class SapienSimulator(Simulator):
         self._require_task()
         return self.task.episode_instruction
 
+    def variation(self) -> int:
+        self._require_task()
+        return int(self.task.variation)
+
     def proprio(self) -> dict[str, np.ndarray]:
         """joint_positions (7), gripper_width (1, m), tcp_pose (7, base frame), gripper_open (1): spec.STATE."""
         self._require_task()
