@@ -60,8 +60,9 @@ class Observation:
     object_names: list[str]  # the task objects to describe in the prompt, in prompt order
     gripper: KeyAction  # current end-effector pose and gripper state
     joint_positions: np.ndarray
-    #: joint_positions (7), gripper_width (1, m), tcp_pose (7: xyz + wxyz, robot base frame),
-    #: gripper_open (1: the commanded state, 1.0 / 0.0); empty where a simulator has none
+    #: laid out as Simulator.control_spec().state (SAPIEN: joint_positions (7), gripper_width (1, m),
+    #: tcp_pose (7: xyz + wxyz, robot base frame), gripper_open (1: the commanded state, 1.0 / 0.0));
+    #: empty where a simulator has none
     proprio: dict[str, np.ndarray] = field(default_factory=dict)
 
 
@@ -129,8 +130,8 @@ class ControlRecording:
     instruction: str
     control_hz: float
     proprio: dict[str, np.ndarray]  # name -> (T + 1, d), the layout of Observation.proprio
-    joint_targets: np.ndarray  # (T + 1, 7) commanded arm joint targets (rad)
-    tcp_targets: np.ndarray  # (T + 1, 7) TCP pose of the joint targets (forward kinematics), base frame
+    joint_targets: np.ndarray  # (T + 1, n_joints) commanded arm joint targets (SAPIEN: the Panda's 7, rad)
+    tcp_targets: np.ndarray  # (T + 1, 7) TCP pose (xyz + wxyz) of the joint targets, robot base frame
     gripper_commands: np.ndarray  # (T + 1,) 1.0 open / 0.0 closed
     rgb: dict[str, np.ndarray] | None  # camera -> (T + 1, H, W, 3) uint8, None when not rendered
     key_action_steps: list[int]  # per key action: the control step (0-based) during which it ended
