@@ -65,6 +65,11 @@ class Observation:
     #: empty where a simulator has none
     proprio: dict[str, np.ndarray] = field(default_factory=dict)
 
+    def first_camera(self) -> str | None:
+        """The camera whose pictures a pool stores and X-ICM's query shows: the first one rendered,
+        in the simulator's own order (simulator.cameras; SAPIEN's starts with front); None if none was."""
+        return next(iter(self.cameras), None)
+
 
 @dataclass(frozen=True)
 class TaskInfo:
@@ -171,7 +176,7 @@ class Query:
     task: str
     instruction: str
     objects: dict[str, tuple[float, float, float]]
-    front_rgb: np.ndarray | None = None
+    front_rgb: np.ndarray | None = None  # the first camera's picture (Observation.first_camera; SAPIEN: front)
     missing: tuple[str, ...] = ()  # object names the detector did not find (the prompt says so)
 
 

@@ -75,11 +75,19 @@ def test_xicm_eval_oracle_solves_every_episode_and_envs_2_gives_the_same_rows(tm
     assert "| pick_cube_to_zone | level1 | 100.0 |" in out.stdout
 
 
-def test_xicm_collect_gathers_a_pool_that_x_icm_evaluates_with(tmp_path):
+def test_xicm_collect_gathers_a_pool_that_x_icm_evaluates_with(tmp_path, kinematic_registry):  # noqa: F811
     pool = f"pool_path={tmp_path}/pool.h5"
-    collected = xicm("xicm-collect", "collect.demos_per_task=3", "collect.workers=1", pool, "hydra.run.dir=collect", cwd=tmp_path)
+    top_only = ["simulator.cameras=[top]", "simulator.image_size=64"]  # no camera is called front (SAPIEN's default name)
+    sim = kinematic_registry.create_simulator({"name": "kinematic", "cameras": ["top"], "image_size": 64})
+    collected = xicm("xicm-collect", "collect.demos_per_task=3", "collect.workers=1", pool, *top_only, "hydra.run.dir=collect", cwd=tmp_path)
     assert "| push_cube_to_zone | 3 | 3 | 100.0 |" in collected.stdout and "| pick_cube_to_zone | 3 | 3 | 100.0 |" in collected.stdout
-    xicm("xicm-eval", "policy=xicm", "llm=nearest_demo", "policy.k=2", pool, "episodes=2", f"paths.cache={tmp_path}/cache",
+    from xicm.core.dataset import load_pool
+
+    first = load_pool(tmp_path / "pool.h5", ["pick_cube_to_zone"], with_images=True)[0]
+    sim.reset("pick_cube_to_zone", first.seed, first.episode)  # the same scene, in this process
+    np.testing.assert_array_equal(first.first_rgb, sim.observe(["top"]).cameras["top"].rgb)  # the pool stores the first camera
+    sim.close()
+    xicm("xicm-eval", "policy=xicm", "llm=nearest_demo", "policy.k=2", pool, *top_only, "episodes=2", f"paths.cache={tmp_path}/cache",
          "hydra.run.dir=xicm", cwd=tmp_path)
     done = rows(tmp_path / "xicm", ROW + ("retrieved", "responses"))
     assert [(r["task"], r["episode"]) for r in done] == [(t, e) for t in TASKS for e in (0, 1)]
@@ -158,8 +166,8 @@ def test_xicm_export_writes_a_lerobot_dataset_of_it(tmp_path):
 
 
 def test_xicm_eval_against_xicm_serve_policy_serving_it(tmp_path):
-    port = free_port()
-    server = subprocess.Popen([str(BIN / "xicm-serve-policy"), *ON_THE_COMMAND_LINE, "policy=oracle", f"serve.port={port}"],
+    port, top_only = free_port(), "simulator.cameras=[top]"  # no camera is called front (SAPIEN's default name)
+    server = subprocess.Popen([str(BIN / "xicm-serve-policy"), *ON_THE_COMMAND_LINE, top_only, "policy=oracle", f"serve.port={port}"],
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path, env=kinematic_env())
     try:
         for line in server.stdout:  # wait for the port to open
@@ -167,8 +175,9 @@ def test_xicm_eval_against_xicm_serve_policy_serving_it(tmp_path):
                 break
         else:
             pytest.fail("xicm-serve-policy exited before serving")
-        common = ["seeds=[3]", "episodes=2", f"paths.cache={tmp_path}/cache"]
-        xicm("xicm-eval", "policy=remote", f"policy.port={port}", *common, "hydra.run.dir=served", cwd=tmp_path)
+        common = [top_only, "seeds=[3]", "episodes=2", f"paths.cache={tmp_path}/cache"]
+        xicm("xicm-eval", "policy=remote", f"policy.port={port}", "policy.images={top: observation/image}", *common,
+             "hydra.run.dir=served", cwd=tmp_path)
     finally:
         server.terminate()
         server.wait(timeout=30)
