@@ -131,6 +131,28 @@ def test_the_gymnasium_env_steps_it_with_spaces_from_its_control_spec(kinematic_
     recorder.close()
 
 
+def test_its_tasks_register_as_gymnasium_ids_and_a_state_only_env_renders_nothing(kinematic_registry):  # noqa: F811
+    """register_envs(simulator) names its tasks; a state-only env (the default cameras front and
+    wrist, which this simulator does not have) builds it without cameras."""
+    import gymnasium
+
+    from xicm.vla.registration import register_envs
+
+    ids = register_envs("kinematic")
+    try:
+        assert ids == ["xicm/PickCubeToZone-v0", "xicm/PushCubeToZone-v0"]
+        env = gymnasium.make(ids[1], obs_mode="state", control_mode="ee_pos")
+        try:
+            obs, info = env.reset(seed=0)
+            assert set(obs) == {"state"} and info["instruction"] == "push the red cube into the green zone"
+            assert env.unwrapped.sim.image_sizes() == {}
+        finally:
+            env.close()
+    finally:
+        for env_id in ids:
+            gymnasium.registry.pop(env_id, None)
+
+
 def test_xicm_export_records_its_episodes_through_the_contract(sim):
     from xicm.export import features as feats
     from xicm.export.record import record_episode
