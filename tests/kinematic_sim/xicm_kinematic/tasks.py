@@ -26,11 +26,14 @@ def key(xy, z: float, open_: bool) -> KeyAction:
     return KeyAction((float(xy[0]), float(xy[1]), float(z)), DOWN, open_)
 
 
-class PushCubeToZone:
-    split = "seen"
-    instruction = "push the red cube into the green zone"
+class CubeTask:
     object_names = ("red cube", "green zone")
     max_control_steps = 200
+
+
+class PushCubeToZone(CubeTask):
+    split = "seen"
+    instruction = "push the red cube into the green zone"
 
     @staticmethod
     def success(world: World) -> bool:
@@ -48,11 +51,9 @@ class PushCubeToZone:
         yield key(world.tcp[:2], ABOVE, True)
 
 
-class PickCubeToZone:
+class PickCubeToZone(CubeTask):
     split = "level1"
     instruction = "pick up the red cube and put it in the green zone"
-    object_names = ("red cube", "green zone")
-    max_control_steps = 200
 
     @staticmethod
     def success(world: World) -> bool:
