@@ -5,6 +5,7 @@ X-ICM over a pool that xicm-collect gathered from it), envs=2, the Gymnasium env
 recording, and xicm-serve-policy with xicm-eval policy=remote."""
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -25,7 +26,7 @@ ROW = ("task", "seed", "episode", "success", "steps", "error_kind")
 
 
 @pytest.fixture
-def sim(kinematic_registry):  # noqa: F811 - the fixture imported above
+def kinematic(kinematic_registry):  # noqa: F811 - the fixture imported above
     simulator = kinematic_registry.create_simulator({"name": "kinematic", "image_size": 48})
     yield simulator
     simulator.close()
@@ -42,25 +43,25 @@ def rows(run_dir: Path, keys=ROW) -> list[dict]:
     return [{k: r[k] for k in keys} for r in map(json.loads, (run_dir / "episodes.jsonl").read_text().splitlines())]
 
 
-def test_check_simulator_passes_on_every_task_and_episode(sim):
+def test_check_simulator_passes_on_every_task_and_episode(kinematic):
     for task in TASKS:
         for episode in range(4):
-            report = check_simulator(sim, task, seed=0, episode=episode)
+            report = check_simulator(kinematic, task, seed=0, episode=episode)
             assert report["skipped"] == [] and "record_scripted + replay" in report["checked"]
-    assert sim.control_spec().mode_names() == ["ee_delta", "ee_pos", "key_pose"]
+    assert kinematic.control_spec().mode_names() == ["ee_delta", "ee_pos", "key_pose"]
 
 
-def test_its_pictures_show_the_cube_where_it_is(sim):
+def test_its_pictures_show_the_cube_where_it_is(kinematic):
     """Depth, segmentation and the cameras' intrinsics and poses agree: the oracle detector
     back-projects the cube's pixels onto the cube's top face, from either camera."""
     from xicm.plugins.detectors.oracle import OracleDetector
 
-    obs = sim.reset("pick_cube_to_zone", 0, 1)
+    obs = kinematic.reset("pick_cube_to_zone", 0, 1)
     assert obs.cameras["top"].rgb.shape == (48, 48, 3) and set(np.unique(obs.cameras["top"].segmentation)) == {0, 1, 2}
     for camera in ("top", "front"):
         found = OracleDetector(cameras=[camera]).detect(obs, ["red cube", "green zone"])
-        assert np.abs(np.subtract(found["red cube"][:2], sim.world.cube[:2])).max() < 0.02, camera
-        assert np.abs(np.subtract(found["green zone"][:2], sim.world.zone)).max() < 0.02, camera
+        assert np.abs(np.subtract(found["red cube"][:2], kinematic.world.cube[:2])).max() < 0.02, camera
+        assert np.abs(np.subtract(found["green zone"][:2], kinematic.world.zone)).max() < 0.02, camera
 
 
 def test_xicm_eval_oracle_solves_every_episode_and_envs_2_gives_the_same_rows(tmp_path):
@@ -153,14 +154,14 @@ def test_its_tasks_register_as_gymnasium_ids_and_a_state_only_env_renders_nothin
             gymnasium.registry.pop(env_id, None)
 
 
-def test_xicm_export_records_its_episodes_through_the_contract(sim):
+def test_xicm_export_records_its_episodes_through_the_contract(kinematic):
     from xicm.export import features as feats
     from xicm.export.record import record_episode
 
-    staged = record_episode(sim, "push_cube_to_zone", 10_000, 0, ["top", "front"])
-    arrays, spec = staged.arrays, sim.control_spec()
+    staged = record_episode(kinematic, "push_cube_to_zone", 10_000, 0, ["top", "front"])
+    arrays, spec = staged.arrays, kinematic.control_spec()
     steps = len(arrays["action.ee_delta"])
-    expected = feats.features(sim.image_sizes(), spec, use_videos=False)
+    expected = feats.features(kinematic.image_sizes(), spec, use_videos=False)
     checked = [name for name in expected if feats.staged_column(name, spec.control_mode) in arrays]
     assert {"action", "observation.state", "observation.images.top", "observation.images.front"} <= set(checked)
     for name in checked:  # every staged column has its LeRobot feature's shape, one row per control step
@@ -180,7 +181,8 @@ def test_xicm_export_writes_a_lerobot_dataset_of_it(tmp_path):
                 "export.cameras=[top]", f"export.out_dir={out_dir}", "export.repo_id=xicm/kinematic", "hydra.run.dir=export",
                 cwd=tmp_path, timeout=600)
     assert "| push_cube_to_zone | 2 | 2 | 100.0 |" in done.stdout and "| pick_cube_to_zone | 2 | 2 | 100.0 |" in done.stdout
-    read_dataset(out_dir, "xicm/kinematic", tmp_path / "loaded.npz", Path.home() / ".cache" / "xicm")
+    cache = Path(os.environ.get("XICM_CACHE", Path.home() / ".cache" / "xicm"))  # paths.cache's default: the lerobot env
+    read_dataset(out_dir, "xicm/kinematic", tmp_path / "loaded.npz", cache)
     data = dict(np.load(tmp_path / "loaded.npz"))
     staged = sorted((tmp_path / "kinematic.staging").rglob("e*.npz"))
     assert int(data["num_episodes"]) == 4 and int(data["num_frames"]) == sum(len(np.load(p)["action.ee_delta"]) for p in staged)
