@@ -139,10 +139,11 @@ class KinematicSimulator(Simulator):
         width = len(STEP_MODES[self.control_mode][0])
         try:
             values = np.asarray(action, dtype=float).reshape(-1)
+            got = f"shape {values.shape}" if values.shape != (width,) else "NaN or infinite values"
         except (TypeError, ValueError):
-            values = np.full(width + 1, np.nan)
-        if values.shape != (width,) or not np.all(np.isfinite(values)):
-            why = f"a {self.control_mode} action is {width} finite numbers, got shape {values.shape}"
+            values, got = None, f"a {type(action).__name__} that is not numbers"
+        if values is None or values.shape != (width,) or not np.all(np.isfinite(values)):
+            why = f"a {self.control_mode} action is {width} finite numbers, got {got}"
             return StepOutcome(False, self.is_success(), error_kind="bad_action", error_message=why)
         target = world.tcp + values[:3] if self.control_mode == "ee_delta" else values[:3]
         problem = self._outside(target)
