@@ -64,14 +64,16 @@ def test_its_pictures_show_the_cube_where_it_is(kinematic):
         assert np.abs(np.subtract(found["green zone"][:2], kinematic.world.zone)).max() < 0.02, camera
 
 
-def test_xicm_eval_oracle_solves_every_episode_and_envs_2_gives_the_same_rows(tmp_path):
+def test_xicm_eval_oracle_solves_every_episode_with_videos_and_envs_2_gives_the_same_rows(tmp_path):
     common = ["policy=oracle", "seeds=[0,1]", "episodes=2", f"paths.cache={tmp_path}/cache"]
-    out = xicm("xicm-eval", *common, "hydra.run.dir=one", cwd=tmp_path)
+    out = xicm("xicm-eval", *common, "video.enabled=true", "video.every=2", "hydra.run.dir=one", cwd=tmp_path)
     xicm("xicm-eval", *common, "envs=2", "hydra.run.dir=two", cwd=tmp_path)
     one = rows(tmp_path / "one")
     assert [(r["task"], r["seed"], r["episode"], r["success"]) for r in one] == [
         (t, s, e, True) for s in (0, 1) for t in TASKS for e in (0, 1)]
     assert rows(tmp_path / "two") == one
+    videos = [r["extra"] for r in rows(tmp_path / "one", ("extra",))]  # one picture per 2 control periods (set_frame_callback)
+    assert all(v["video"].endswith("-PASS.mp4") and (tmp_path / "one" / v["video"]).exists() and v["video_frames"] > 3 for v in videos), videos
     assert json.loads((tmp_path / "one" / "run.json").read_text())["splits"] == {"push_cube_to_zone": "seen", "pick_cube_to_zone": "level1"}
     assert "| pick_cube_to_zone | level1 | 100.0 |" in out.stdout
 
