@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from kinematic_plugin import kinematic_env, kinematic_registry  # noqa: F401 - a fixture
+from serve_wait import wait_for_serving
 from test_export import needs_lerobot
 
 from xicm.core.simulator_check import check_simulator
@@ -196,11 +197,7 @@ def test_xicm_eval_against_xicm_serve_policy_serving_it(tmp_path):
     server = subprocess.Popen([str(BIN / "xicm-serve-policy"), *ON_THE_COMMAND_LINE, top_only, "policy=oracle", f"serve.port={port}"],
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path, env=kinematic_env())
     try:
-        for line in server.stdout:  # wait for the port to open
-            if "serving policy 'oracle'" in line:
-                break
-        else:
-            pytest.fail("xicm-serve-policy exited before serving")
+        wait_for_serving(server, "oracle")
         common = [top_only, "seeds=[3]", "episodes=2", f"paths.cache={tmp_path}/cache"]
         xicm("xicm-eval", "policy=remote", f"policy.port={port}", "policy.images={top: observation/image}", *common,
              "hydra.run.dir=served", cwd=tmp_path)
