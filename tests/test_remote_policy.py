@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from serve_wait import wait_for_serving
 
 from xicm.core.build import Run
 from xicm.core.episode import run_episode
@@ -129,11 +130,7 @@ def test_eval_against_xicm_serve_policy_and_against_nothing(tmp_path):
     server = subprocess.Popen([str(BIN / "xicm-serve-policy"), "policy=oracle", f"serve.port={port}", "simulator.image_size=32"],
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path)
     try:
-        for line in server.stdout:  # wait for the port to open
-            if "serving policy 'oracle'" in line:
-                break
-        else:
-            pytest.fail("xicm-serve-policy exited before serving")
+        wait_for_serving(server, "oracle")
         served = subprocess.run([str(BIN / "xicm-eval"), "policy=remote", f"policy.port={port}", *common, "hydra.run.dir=served"],
                                 capture_output=True, text=True, cwd=tmp_path, timeout=600)
         assert served.returncode == 0, served.stderr[-3000:]

@@ -8,6 +8,10 @@ default 0); its info names the scene (instruction, seed, episode, variation). Ob
 truncated after max_control_steps (the task's default unless given). A step the simulator
 refuses (unreachable, bad action) leaves the state as it was and says why in
 info["error_kind"] / info["error_message"].
+
+Any simulator plugin serves (`simulator=`): it is built with the options control_mode and render,
+cameras and image_size when something is rendered, and `simulator_options`; the spaces come
+from its control_spec() and image_sizes().
 """
 
 from __future__ import annotations
@@ -50,14 +54,11 @@ class XicmEnv(gymnasium.Env):
         if variations not in ("zero", "sampled"):
             raise ConfigError(f"variations must be 'zero' or 'sampled', not {variations!r}")
         registry = get_registry()
-        options = {
-            "name": simulator,
-            "cameras": list(cameras),
-            "image_size": image_size if isinstance(image_size, (int, dict)) else list(image_size),
-            "control_mode": control_mode,
-            "render": obs_mode != "state" or render_mode is not None,
-            **(simulator_options or {}),
-        }
+        render = obs_mode != "state" or render_mode is not None
+        pictures = {"cameras": list(cameras), "image_size": image_size if isinstance(image_size, (int, dict)) else list(image_size)}
+        # a state-only env renders nothing: the simulator keeps its own cameras (whatever they are called)
+        options = {"name": simulator, **(pictures if render else {}), "control_mode": control_mode, "render": render,
+                   **(simulator_options or {})}
         check = registry.check_options("simulator", options).extra.get("check")
         if check is not None:
             check(options)

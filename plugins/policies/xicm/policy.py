@@ -55,9 +55,9 @@ class XICMPolicy(Policy):
             raise EpisodeFailure("max_llm_calls", f"no success after {self.llm_calls} LLM calls")
         with self._stage("detect", "detector_error"):
             objects = self.detector.detect(obs, list(obs.object_names))
-        front = obs.cameras.get("front")
+        camera = obs.first_camera()  # the one the pool's pictures come from
         missing = tuple(n for n in obs.object_names if n not in objects)
-        query = Query(self.task, obs.instruction, objects, None if front is None else front.rgb, missing)
+        query = Query(self.task, obs.instruction, objects, None if camera is None else obs.cameras[camera].rgb, missing)
         if missing:
             seen = self._record["extra"].setdefault("not_detected", [])
             seen.extend(n for n in missing if n not in seen)
