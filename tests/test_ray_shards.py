@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from hydra import compose, initialize_config_module
+from omegaconf import OmegaConf
 
 from xicm.core.errors import XicmError
 from xicm.core.run_dir import config_fingerprint
@@ -136,6 +137,31 @@ def test_ray_nearest_demo_run_matches_a_local_run(smoke_pool, tmp_path):
     assert [tuple(json.dumps(r[k]) for k in fields) for r in sharded] == [tuple(json.dumps(r[k]) for k in fields) for r in local]
     assert len(_worker_counts(output)) == 2
 
+
+
+@pytest.mark.slow
+def test_a_killed_worker_s_episodes_run_on_the_other_and_losing_the_last_one_stops_the_run(tmp_path, capsys):
+    ray = pytest.importorskip("ray")
+    cfg = _compose(["policy=oracle", "simulator.cameras=[front]", "simulator.image_size=64", f"paths.data={tmp_path}/x"])
+    config = OmegaConf.to_container(cfg)  # unresolved: the run name and tracking keys need a Hydra job
+    keys = [("push_buttons", 0, e) for e in range(6)]
+    shards = RayEpisodeShards(ShardSettings("ray", 2, None, 0.5), config, {"max_steps": 3}, keys)
+    try:
+        first = shards(*keys[0])
+        doomed = next(i for i, n in enumerate(shards.queued) if n)  # an actor with keys handed out
+        ray.kill(shards.actors[doomed])
+        results = [first] + [shards(*k) for k in keys[1:]]
+        assert [(r.task, r.seed, r.episode) for r in results] == keys
+        assert re.search(rf"shards: lost the Ray worker pid {shards.where[doomed]['pid']} .*its [1-9] unfinished "
+                         r"episode\(s\) run again on the 1 other worker\(s\)", capsys.readouterr().out)
+        assert {r.extra["shard"]["pid"] for r in results[1:]} >= {shards.where[1 - doomed]["pid"]}
+
+        ray.kill(shards.actors[1 - doomed])
+        with pytest.raises(XicmError, match="every Ray shard worker was lost"):
+            shards("push_buttons", 0, 6)
+    finally:
+        shards.close()
+    assert not ray.is_initialized()
 
 PID_POLICY = '''import os
 from xicm.core.hookspecs import hookimpl
