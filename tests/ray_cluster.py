@@ -94,6 +94,12 @@ class RayNodes:
             subprocess.run(["rm", "-rf", temp_dir], check=False)
         return left
 
+    def files_naming_the_token(self, *more: Path) -> list[str]:
+        """Files under the nodes' temp dirs (and `more`) that contain the token: there should be none."""
+        token = self.env["RAY_AUTH_TOKEN"].encode()
+        roots = [Path(d) for d in self.temp_dirs] + list(more)
+        return [str(f) for root in roots for f in root.rglob("*") if f.is_file() and token in f.read_bytes()]
+
     def leftovers(self) -> list[str]:
         """Live processes of the nodes' sessions, or naming their temp dirs (zombies excepted)."""
         import psutil

@@ -240,7 +240,7 @@ def test_two_ray_nodes_share_a_run_and_it_survives_losing_a_node_or_its_driver(t
     """Rows name their node; the second node SIGKILLed mid-run (raylet, agents, its actor at once);
     the driver SIGKILLed mid-run and the same command run again. Figures: `pytest -s`."""
     nodes = RayNodes()
-    figures, worker_pids = {}, set()
+    figures, worker_pids, drivers = {}, set(), []
     try:
         nodes.head(cpus=1, resources={"xicm_head": 1})
         second = nodes.join(SECOND_IP, cpus=1, resources={"xicm_second": 1})
@@ -248,27 +248,31 @@ def test_two_ray_nodes_share_a_run_and_it_survives_losing_a_node_or_its_driver(t
 
         def start(*args):
             log = open(tmp_path / f"{args[-1].split('=')[-1]}.log", "a")
-            return subprocess.Popen([str(BIN / "xicm-eval"), *common, *args], cwd=tmp_path, env=nodes.env,
-                                    stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+            drivers.append(subprocess.Popen([str(BIN / "xicm-eval"), *common, *args], cwd=tmp_path, env=nodes.env,
+                                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True))
+            return drivers[-1]
 
         _eval(*common, "episodes=2", "hydra.run.dir=normal", cwd=tmp_path, env=nodes.env)
         figures["normal"] = _each_key_once(rows := _rows(tmp_path / "normal"), 2)
         assert figures["normal"]["per_node"].get(SECOND_IP, 0) >= 1 and len(figures["normal"]["per_node"]) == 2
         worker_pids |= {r["extra"]["shard"]["pid"] for r in rows}
 
-        driver = start("episodes=3", "hydra.run.dir=resumed")
-        kept = _wait_rows(tmp_path / "resumed", driver, until=lambda rows: len(rows) >= 2)
+        # Episodes take ~0.3 s once a worker is warm, and rows come in bursts of up to the window (4 x 2):
+        # 24 keys leave seconds of run after the first rows.
+        driver = start("episodes=8", "hydra.run.dir=resumed")
+        _wait_rows(tmp_path / "resumed", driver, until=lambda rows: len(rows) >= 2)
         os.killpg(driver.pid, signal.SIGKILL)
         driver.wait(timeout=30)
         kept = _written_rows(tmp_path / "resumed")
-        _eval(*common, "episodes=3", "hydra.run.dir=resumed", cwd=tmp_path, env=nodes.env)
+        assert 0 < len(kept) < 24, "the driver was to be killed mid-run"
+        _eval(*common, "episodes=8", "hydra.run.dir=resumed", cwd=tmp_path, env=nodes.env)
         rows = _rows(tmp_path / "resumed")
         assert rows[: len(kept)] == kept  # the episodes written before the kill were not run again
-        figures["driver_killed"] = {**_each_key_once(rows, 3), "rows_before_kill": len(kept)}
+        figures["driver_killed"] = {**_each_key_once(rows, 8), "rows_before_kill": len(kept)}
         worker_pids |= {r["extra"]["shard"]["pid"] for r in rows}
 
-        driver = start("episodes=4", "hydra.run.dir=node_lost")
-        # 2 of 12 rows written: each actor holds 2 keys while more are queued, so the second node has work.
+        driver = start("episodes=8", "hydra.run.dir=node_lost")
+        # 2 of 24 rows written: each actor holds 2 keys while more are queued, so the second node has work.
         _wait_rows(tmp_path / "node_lost", driver, until=lambda rows: len(rows) >= 2)
         nodes.kill(second)
         assert driver.wait(timeout=600) == 0, (tmp_path / "node_lost.log").read_text()[-3000:]
@@ -276,9 +280,14 @@ def test_two_ray_nodes_share_a_run_and_it_survives_losing_a_node_or_its_driver(t
         lost_line = re.search(rf"shards: lost the Ray worker pid \d+ on node {SECOND_IP} .* its [1-9]\d* unfinished", output)
         assert lost_line, output[-3000:]
         rows = _rows(tmp_path / "node_lost")
-        figures["node_killed"] = {**_each_key_once(rows, 4), "log": lost_line.group(0)}
+        figures["node_killed"] = {**_each_key_once(rows, 8), "log": lost_line.group(0)}
         worker_pids |= {r["extra"]["shard"]["pid"] for r in rows}
+        assert nodes.files_naming_the_token(tmp_path) == []  # the token lives in the environment only
     finally:
+        for driver in drivers:
+            if driver.poll() is None:  # a failed check left it running
+                os.killpg(driver.pid, signal.SIGKILL)
+                driver.wait()
         leftovers = nodes.close()
         print(json.dumps(figures, indent=1))
     import psutil
