@@ -188,8 +188,8 @@ class RayEpisodeShards:
             except (ConnectionError, RuntimeError, ValueError) as exc:
                 reason = " ".join(str(exc).split())[:200]
                 token = "" if os.environ.get("RAY_AUTH_MODE") == "token" else (
-                    "; a cluster with token authentication (`ray start --head` turns it on where ~/.ray/auth_token "
-                    "exists) also needs RAY_AUTH_MODE=token and its token (RAY_AUTH_TOKEN or that file) here")
+                    "; a cluster with token authentication (on where `ray start --head` found ~/.ray/auth_token or "
+                    "RAY_AUTH_MODE=token) also needs RAY_AUTH_MODE=token and its token (RAY_AUTH_TOKEN or that file) here")
                 raise XicmError(
                     f"cannot join the Ray cluster at shards.address={settings.address} ({reason}); use the address "
                     f"`ray start --head` printed, or shards.address=null to start a local cluster{token}"

@@ -252,6 +252,12 @@ def test_two_ray_nodes_share_a_run_and_it_survives_losing_a_node_or_its_driver(t
                                             stdout=log, stderr=subprocess.STDOUT, start_new_session=True))
             return drivers[-1]
 
+        no_token = {k: v for k, v in nodes.env.items() if not k.startswith("RAY_AUTH_")}
+        refused = subprocess.run([str(BIN / "xicm-eval"), *common, "hydra.run.dir=refused"], cwd=tmp_path, env=no_token,
+                                 capture_output=True, text=True, timeout=300)
+        assert refused.returncode != 0 and re.search(r"xicm: error: cannot join the Ray cluster at .* also needs "
+                                                     r"RAY_AUTH_MODE=token and its token", refused.stderr), refused.stderr[-2000:]
+
         _eval(*common, "episodes=2", "hydra.run.dir=normal", cwd=tmp_path, env=nodes.env)
         figures["normal"] = _each_key_once(rows := _rows(tmp_path / "normal"), 2)
         assert figures["normal"]["per_node"].get(SECOND_IP, 0) >= 1 and len(figures["normal"]["per_node"]) == 2
