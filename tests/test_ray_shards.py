@@ -46,7 +46,7 @@ def _rows(run: Path) -> list[dict]:
 
 
 def _worker_counts(output: str) -> dict[int, int]:
-    """{pid: episodes} from the driver's closing line `shards: episodes run per worker: pid P: N, ...`."""
+    """{pid: episodes} from the driver's closing line `shards: episodes run per worker: pid P on node IP ID: N, ...`."""
     line = next(l for l in output.splitlines() if "shards: episodes run per worker:" in l)
     return {int(p): int(n) for p, n in re.findall(r"pid (\d+) on node [^:,]+: (\d+)", line)}
 
