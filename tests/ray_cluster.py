@@ -13,6 +13,7 @@ import json
 import os
 import secrets
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -84,7 +85,7 @@ class RayNodes:
         return found
 
     def close(self) -> list[str]:
-        """Kill every node (the head last); the command lines of any process still naming a temp dir."""
+        """Kill every node (the head last); what is left: live processes of theirs, the head's port in use."""
         for node in reversed(self.nodes):
             self.kill(node)
         deadline = time.monotonic() + 30
@@ -92,6 +93,8 @@ class RayNodes:
             time.sleep(0.5)
         for temp_dir in self.temp_dirs:
             subprocess.run(["rm", "-rf", temp_dir], check=False)
+        if self.address and not _can_listen(int(self.address.rpartition(":")[2])):
+            left.append(f"the head's port {self.address} is still listened on")
         return left
 
     def files_naming_the_token(self, *more: Path) -> list[str]:
@@ -112,6 +115,17 @@ class RayNodes:
             if (named or process.pid in pids) and process.info["status"] != psutil.STATUS_ZOMBIE:
                 found.append(f"{process.pid} {line[:200]}")
         return found
+
+
+def _can_listen(port: int) -> bool:
+    with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # TIME_WAIT left by closed connections is fine
+        try:
+            s.bind(("0.0.0.0", port))
+            s.listen()
+        except OSError:
+            return False
+    return True
 
 
 def _wait_for_line(path: Path, text: str, process: subprocess.Popen, timeout_s: float) -> None:
