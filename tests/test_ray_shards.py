@@ -247,9 +247,9 @@ def test_two_ray_nodes_share_a_run_and_it_survives_losing_a_node_or_its_driver(t
         common = [*TWO_NODES, f"paths.data={tmp_path}/nothing", f"shards.address={nodes.address}"]
 
         def start(*args):
-            log = open(tmp_path / f"{args[-1].split('=')[-1]}.log", "a")
-            drivers.append(subprocess.Popen([str(BIN / "xicm-eval"), *common, *args], cwd=tmp_path, env=nodes.env,
-                                            stdout=log, stderr=subprocess.STDOUT, start_new_session=True))
+            with open(tmp_path / f"{args[-1].split('=')[-1]}.log", "a") as log:
+                drivers.append(subprocess.Popen([str(BIN / "xicm-eval"), *common, *args], cwd=tmp_path, env=nodes.env,
+                                                stdout=log, stderr=subprocess.STDOUT, start_new_session=True))
             return drivers[-1]
 
         no_token = {k: v for k, v in nodes.env.items() if not k.startswith("RAY_AUTH_")}
