@@ -269,6 +269,7 @@ def test_each_episode_names_its_scene_and_the_env_rebuilt_from_it_alone_replays_
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
 def test_a_partial_export_resumes_recording_only_what_is_missing(exported, monkeypatch, tmp_path):
     import shutil

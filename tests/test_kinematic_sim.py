@@ -175,6 +175,7 @@ def test_xicm_export_records_its_episodes_through_the_contract(kinematic):
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
 def test_xicm_export_writes_a_lerobot_dataset_of_it(tmp_path):
     from xicm.export.dataset_writer import read_dataset

@@ -144,6 +144,7 @@ def test_ray_nearest_demo_run_matches_a_local_run(smoke_pool, tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.ray
 def test_a_killed_worker_s_episodes_run_on_the_other_and_losing_the_last_one_stops_the_run(tmp_path, capsys):
     ray = pytest.importorskip("ray")
     cfg = _compose(["policy=oracle", "simulator.cameras=[front]", "simulator.image_size=64", f"paths.data={tmp_path}/x"])
@@ -241,6 +242,7 @@ def _each_key_once(rows: list[dict], episodes: int) -> dict:
 
 
 @pytest.mark.slow
+@pytest.mark.ray
 def test_two_ray_nodes_share_a_run_and_it_survives_losing_a_node_or_its_driver(tmp_path):
     """Rows name their node; the second node SIGKILLed mid-run (raylet, agents, its actor at once);
     the driver SIGKILLed mid-run and the same command run again. Figures: `pytest -s`."""

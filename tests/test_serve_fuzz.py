@@ -55,6 +55,7 @@ def ask_episode(uri: str, key: str, stop: threading.Event, answers: list) -> Non
 
 
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_a_live_served_policy_answers_every_malformed_frame_and_a_good_client_throughout(tmp_path):
     key = "fuzz-key"
     port = free_port()

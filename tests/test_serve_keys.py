@@ -136,6 +136,7 @@ def files_holding(folder: Path, needle: str) -> list[str]:
 
 
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_a_keyed_xicm_serve_policy_and_xicm_eval_leave_the_key_in_no_file(tmp_path):
     """A real server and evaluation with the key in the environment only, tracked by an offline
     wandb run: the key is in none of the run's files; a wrong or missing key stops xicm-eval at

@@ -99,6 +99,7 @@ def start_episode(uri: str, episode: int) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_clients_leaving_mid_episode_leave_no_session_process_or_port_behind(tmp_path):
     """xicm-serve-policy with one session built at start: three clients at once make it build two
     more (two more simulator processes); all three leave mid-episode; then the server has what it
