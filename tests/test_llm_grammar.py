@@ -212,8 +212,11 @@ def test_paper_presets_decode_freely_and_other_configs_use_the_grammar():
     import yaml
 
     root = Path(__file__).resolve().parents[1] / "conf"
-    for name in ("paper_table2", "ablation_k", "ablation_llm", "ablation_selection"):
-        assert yaml.safe_load((root / "experiment" / f"{name}.yaml").read_text())["llm"]["grammar"] == "none", name
+    from hydra import compose, initialize_config_module
+
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        for name in ("paper_table2", "ablation_k", "ablation_llm", "ablation_selection"):
+            assert compose("config", overrides=[f"+experiment={name}"]).llm.grammar == "none", name
     grammars = {p.stem: yaml.safe_load(p.read_text()).get("grammar") for p in (root / "llm").glob("*.yaml")}
     assert grammars.pop("deepseek_r1_distill_qwen_7b") == "none"  # it reasons in free text first
     assert set(grammars.values()) == {"actions"}
