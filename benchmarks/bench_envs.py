@@ -38,7 +38,7 @@ def start_server(image_size: int, sessions: int) -> tuple[subprocess.Popen, int]
 
 def start_lerobot_server(checkpoint: str, max_batch: int) -> tuple[subprocess.Popen, int]:
     cmd = [str(Path(sys.executable).parent / "xicm-serve-lerobot"), checkpoint, "--port", "0",
-           "--action-space", "joint_pos", "--max-batch", str(max_batch)]
+           "--control-mode", "joint_pos", "--max-batch", str(max_batch)]
     return wait_for_port(subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True))
 
 
@@ -51,7 +51,7 @@ def wait_for_port(server: subprocess.Popen) -> tuple[subprocess.Popen, int]:
 
 #: policy=remote mapped onto an xicm-export checkpoint's features (conf/experiment/vla_baseline.yaml)
 LEROBOT_CLIENT = [
-    "policy=remote", "policy.timeout_s=300", "policy.action_space=joint_pos", "simulator.control_mode=joint_pos",
+    "policy=remote", "policy.timeout_s=300", "policy.control_mode=joint_pos", "simulator.control_mode=joint_pos",
     "simulator.cameras=[front,wrist]", "policy.images={front: observation.images.front, wrist: observation.images.wrist}",
     "policy.state_key=observation.state", "policy.state=[joint_positions,gripper_width,tcp_pose,gripper_open]",
     "policy.prompt_key=task", "policy.chunk_steps_to_execute=10",

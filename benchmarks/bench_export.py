@@ -10,7 +10,7 @@ prints recording and writing rates and dataset bytes per demo. The extrapolation
 the per-task means by demos per task for the 18 seen tasks (10: xicm-export's default; 200:
 the AGNOSTOS pool size). The lerobot env must exist or is built first (not timed). With
 --replay, the dataset is loaded back with LeRobotDataset and every episode's actions are
-replayed through step() in each action space: the success rate per space.
+replayed through step() in each control mode: the success rate per mode.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 2)
     ap.add_argument("--cameras", nargs="+", default=["front", "wrist"])
     ap.add_argument("--tasks", nargs="*", default=None, help="default: the 18 seen tasks")
-    ap.add_argument("--replay", action="store_true", help="also replay the loaded actions in every action space")
+    ap.add_argument("--replay", action="store_true", help="also replay the loaded actions in every control mode")
     args = ap.parse_args()
 
     from hydra import compose, initialize_config_module
@@ -77,27 +77,31 @@ def main() -> None:
                 print(f"seen set, 18 tasks x {n} demos: ~{18 * n * seconds_per_demo / 3600:.1f} h, "
                       f"~{18 * n * mb_per_demo / 1e3:.2f} GB (dataset), ~{18 * n * staging_mb / demos / 1e3:.2f} GB (staging)")
             if args.replay:
-                replay(cfg, out, staged, Path(tmp) / "loaded.npz")
+                replay(cfg, out, Path(tmp) / "loaded.npz")
 
 
-def replay(cfg, out: Path, staged: list[Path], loaded: Path) -> None:
-    """Replay the actions LeRobotDataset loads, per action space, from each episode's reset."""
+def replay(cfg, out: Path, loaded: Path) -> None:
+    """Replay the actions LeRobotDataset loads, per control mode, from each episode's reset (the
+    scene its scene/* columns name, in the simulator they name)."""
     from xicm.core.plugins import get_registry
     from xicm.export.dataset_writer import read_dataset
-    from xicm.export.features import ACTION_SPACES
+    from xicm.export.provenance import from_dump
 
     read_dataset(out, cfg.export.repo_id, loaded, cfg.paths.cache)
     data = np.load(loaded)
+    scenes = from_dump(data)
     episode_of = data["column.episode_index"].reshape(-1)
-    for space in ACTION_SPACES:
-        sim = get_registry().create_simulator({"name": "sapien", "render": False, "control_mode": space})
+    modes = [key[len("column.action."):] for key in data.files if key.startswith("column.action.")]  # the dataset's own
+    for space in modes:  # one export: every episode was recorded with the same simulator options
+        options = {"name": scenes[0].simulator, **scenes[0].simulator_options, "render": False, "control_mode": space}
+        sim = get_registry().create_simulator(options)
         ok = 0
-        for n, path in enumerate(staged):
-            sim.reset_state(path.parent.parent.name, int(cfg.export.seed), int(path.stem[1:]))
+        for n, scene in enumerate(scenes):
+            sim.reset_state(scene.task, scene.seed, scene.episode)
             outcomes = [sim.step(a) for a in data[f"column.action.{space}"][episode_of == n]]
             ok += any(o.success for o in outcomes)
         sim.close()
-        print(f"replay {space}: {ok}/{len(staged)} succeed ({100 * ok / len(staged):.1f} %)")
+        print(f"replay {space}: {ok}/{len(scenes)} succeed ({100 * ok / len(scenes):.1f} %)")
 
 
 if __name__ == "__main__":

@@ -37,7 +37,10 @@ DYNAMICS = {
     "dynamics": {"mode": "predicted_frame", "visual": "final"},
     "dynamics_change": {"mode": "predicted_frame", "visual": "change"},
     "dynamics_onepass": {"mode": "unet_features"},
+    # X-ICM's ranking (conf/retriever/dynamics_xicm.yaml): the raw predicted final frame, no text, dot product
+    "dynamics_xicm": {"mode": "predicted_frame", "visual": "final", "text_weight": 0.0, "normalise": False},
 }
+SCORE = {"dynamics_xicm": "dot"}  # retriever.score where it is not cosine
 
 
 def build(name: str, checkpoint: str, cache_dir: str, steps: int, text_weight: float):
@@ -45,7 +48,8 @@ def build(name: str, checkpoint: str, cache_dir: str, steps: int, text_weight: f
     options: dict = {"exclude_same_task": True, "cache_dir": cache_dir}
     if name in DYNAMICS:
         spec = {"name": "dynamics", "checkpoint": checkpoint, "steps": steps, "text_weight": text_weight, **DYNAMICS[name]}
-        return registry.create("retriever", {"name": "dynamics", **options}, encoder=registry.create("encoder", spec))
+        retriever = {"name": "dynamics", **options, "score": SCORE.get(name, "cosine")}
+        return registry.create("retriever", retriever, encoder=registry.create("encoder", spec))
     if name == "language":
         return registry.create("retriever", {"name": "similarity", **options}, encoder=registry.create("encoder", {"name": "minilm"}))
     if name == "random":
@@ -70,7 +74,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--pool", default="data/pools/seen.h5")
     ap.add_argument("--checkpoint", default="data/dynamics/seen")
-    ap.add_argument("--retrievers", default="dynamics,dynamics_change,dynamics_onepass,language,random")
+    ap.add_argument("--retrievers", default="dynamics,dynamics_change,dynamics_onepass,dynamics_xicm,language,random")
     ap.add_argument("--k", type=int, default=18)
     ap.add_argument("--steps", type=int, default=1, help="DDIM steps of the predicted-frame features (the encoder default: 1)")
     ap.add_argument("--text-weight", type=float, default=0.5, help="share of the text cosine in dynamics similarity")

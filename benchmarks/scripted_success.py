@@ -6,7 +6,7 @@ text grid, reset the same episode and execute them. Physics only (no rendering).
 
     python benchmarks/scripted_success.py [--seeds 50] [--first-seed 0] [--grasp attach|friction]
         [--success-check per_action|per_frame]
-        [--scenes ours|rlbench] [--tasks open_drawer push_buttons ...]
+        [--scenes ours|rlbench] [--robot ours|rlbench] [--tasks open_drawer push_buttons ...]
 
 With --scenes rlbench each scene is redrawn until the demonstrator solves it; the draws
 column gives the mean number of draws per accepted scene and how many seeds had none solvable;
@@ -35,6 +35,7 @@ def main() -> None:
     parser.add_argument("--grasp", choices=("attach", "friction"), default="attach", help="simulator.grasp mode")
     parser.add_argument("--success-check", choices=("per_action", "per_frame"), default="per_action")
     parser.add_argument("--scenes", choices=("ours", "rlbench"), default="ours", help="simulator.scenes")
+    parser.add_argument("--robot", choices=("ours", "rlbench"), default="ours", help="simulator.robot")
     parser.add_argument("--first-seed", type=int, default=0, help="first seed (to run a range in chunks)")
     args = parser.parse_args()
 
@@ -46,6 +47,7 @@ def main() -> None:
         "grasp": args.grasp,
         "success_check": args.success_check,
         "scenes": args.scenes,
+        "robot": args.robot,
     }
     sim = get_registry().create_simulator(options)
     tasks = args.tasks or sim.task_names()

@@ -12,6 +12,7 @@ from omegaconf import DictConfig, OmegaConf
 from xicm.core.config_schema import XicmConfig
 from xicm.core.errors import ConfigError
 from xicm.core.interfaces import Policy, PolicyContext, Simulator
+from xicm.core.literal_keys import refuse_literal_keys
 from xicm.core.plugins import Registry, get_registry
 from xicm.core.schema import check_config
 
@@ -32,6 +33,7 @@ def check_run(cfg: DictConfig, registry: Registry, tasks: list[str]) -> None:
     `check(cfg, registry)` callable beside its factory to check the groups and files it will
     build from (X-ICM: its parts and its pool).
     """
+    refuse_literal_keys(OmegaConf.to_container(cfg, resolve=False))
     check_config(cfg, XicmConfig)
     check_envs(cfg)
     simulator = registry.check_options("simulator", group_options(cfg, "simulator"))

@@ -24,9 +24,11 @@ def _fail(exc: Exception) -> None:
 def _check_command_line() -> None:
     """A command-line value of the wrong type or range, or an unknown key: one sentence, before Hydra composes."""
     from xicm.core.config_schema import XicmConfig
+    from xicm.core.literal_keys import refuse_literal_keys_on_command_line
     from xicm.core.schema import check_overrides
 
     try:
+        refuse_literal_keys_on_command_line(sys.argv[1:])  # before Hydra writes .hydra/overrides.yaml
         check_overrides(sys.argv[1:], XicmConfig, xicm.conf.groups())
     except XicmError as exc:
         _fail(exc)
@@ -190,7 +192,7 @@ def _print_paired(dirs: list[str]) -> None:
 
 def report_main(argv: list[str] | None = None) -> None:
     """xicm-report DIR [DIR ...] [--html] | --merge OUT_DIR RUN_DIR [RUN_DIR ...] (see report_parser)."""
-    from xicm.core.report import markdown_table, media_lines, summarise
+    from xicm.core.report import markdown_table, media_lines, std_ddof, summarise
     from xicm.core.run_dir import EPISODES, META, REPORT_FILES, RunDir, find_runs
 
     args = report_parser().parse_args(argv)
@@ -218,7 +220,7 @@ def report_main(argv: list[str] | None = None) -> None:
             meta = run.read_meta()
             print(f"## {run_dir}\n")
             rows = run.rows(meta)
-            print(markdown_table(summarise(rows, meta["splits"], meta["tasks"])))
+            print(markdown_table(summarise(rows, meta["splits"], meta["tasks"], std_ddof(meta))))
             for line in media_lines(rows, run_dir):  # rollout videos and LLM transcripts, if any
                 print(line)
             print()

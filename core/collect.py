@@ -9,7 +9,8 @@ For each task, episodes 0, 1, 2, ... are tried until `demos_per_task` demos succ
     obs_last = sim.observe()
     key_actions = encoding.key_actions_from_trajectory(traj)
 
-and successful demos are written with the first/last RGB + depth of one camera. Every
+and successful demos are written with the first/last RGB + depth of one camera (the first the
+simulator renders: Observation.first_camera). Every
 attempt is logged in the file, so a re-run resumes: episodes already written, or whose
 scripted demonstration failed, are skipped without simulating them again, and the walk over
 episodes reproduces the counts of an uninterrupted run. Episodes that ended with an
@@ -47,7 +48,7 @@ class AttemptFailed(Exception):
 
 
 def record_episode(
-    simulator: Simulator, detector: Detector, task: str, seed: int, episode: int, camera: str = "front"
+    simulator: Simulator, detector: Detector, task: str, seed: int, episode: int, camera: str | None = None
 ) -> tuple[Demo, str]:
     """Reset, detect, demonstrate and observe one episode -> (demo, note).
 
@@ -55,6 +56,9 @@ def record_episode(
     The note names task objects the detector did not find (they are left out of the demo).
     """
     obs = simulator.reset(task, seed, episode)
+    camera = camera or obs.first_camera()
+    if camera is None:
+        raise AttemptFailed("the simulator rendered no camera; the pool stores one camera's pictures")
     if camera not in obs.cameras:
         raise AttemptFailed(f"no camera '{camera}' in the observation; cameras: {', '.join(obs.cameras)}")
     found = detector.detect(obs, list(obs.object_names))
@@ -88,7 +92,7 @@ def record_episode(
 
 
 def attempt_episode(
-    simulator: Simulator, detector: Detector, task: str, seed: int, episode: int, camera: str = "front"
+    simulator: Simulator, detector: Detector, task: str, seed: int, episode: int, camera: str | None = None
 ) -> Attempt:
     """record_episode that never raises: the outcome of one episode, ready to be committed."""
     try:
@@ -109,7 +113,7 @@ def collect(
     out_path: str | Path,
     max_attempts_factor: float = 2,
     progress: bool = True,
-    camera: str = "front",
+    camera: str | None = None,
 ) -> dict[str, tuple[int, int]]:
     """Collect demos in this process into `out_path`; returns {task: (successes, attempts)}."""
 
@@ -131,7 +135,7 @@ def collect_parallel(
     workers: int,
     max_attempts_factor: float = 2,
     progress: bool = True,
-    camera: str = "front",
+    camera: str | None = None,
 ) -> dict[str, tuple[int, int]]:
     """collect() over `workers` processes, each building its simulator and detector once from
     `config` (collector_config(cfg): the run's simulator and detector groups as plain dicts)."""
@@ -164,7 +168,7 @@ def collect_parallel(
 _WORKER: dict = {}
 
 
-def _worker_start(config: dict, camera: str) -> None:
+def _worker_start(config: dict, camera: str | None) -> None:
     from omegaconf import OmegaConf
 
     threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()

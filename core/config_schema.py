@@ -13,7 +13,7 @@ from typing import Any, Dict, List, Optional
 from omegaconf import MISSING
 
 from xicm.core.instructions import INSTRUCTION_CHOICES
-from xicm.core.schema import at_least, number, one_of, rule
+from xicm.core.schema import above, at_least, between, number, one_of, rule
 
 #: episode_rng keeps 32 bits of a seed (xicm.core.seeding), so larger or negative seeds would
 #: repeat the scenes of another seed.
@@ -93,6 +93,7 @@ class Video:
 class Report:
     html: bool = MISSING
     inline_video_mb: Any = field(default=MISSING, metadata=number(0))
+    std_ddof: int = field(default=MISSING, metadata=between(0, 1))
 
 
 @dataclass
@@ -108,6 +109,9 @@ class Serve:
     host: str = MISSING
     port: int = field(default=MISSING, metadata=rule(lambda v: 0 <= v <= 65535, "a port number from 0 to 65535 (0: any free port)"))
     sessions: int = field(default=MISSING, metadata=at_least(1))
+    max_sessions: int = field(default=MISSING, metadata=at_least(1))
+    idle_timeout_s: Optional[float] = field(default=MISSING, metadata=above(0))
+    api_key_env: Optional[str] = MISSING
 
 
 @dataclass

@@ -44,6 +44,7 @@ ERROR_KINDS = (
     "no_actions",  # the policy returned no action
     "solution_ended",  # the scripted solution (oracle policy) ran out without success
     "server_unreachable",  # policy=remote: no policy server answered, or the link was lost
+    "server_refused",  # policy=remote: the server refused the connection (no key or a wrong key, all its sessions in use)
     "server_timeout",  # policy=remote: the server did not answer within policy.timeout_s
     "server_error",  # policy=remote: the server failed to answer the request
     "bad_reply",  # policy=remote: the reply could not be decoded (serving/wire.py), had no actions, a wrong shape, or NaN/inf

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Any
 
@@ -12,9 +13,11 @@ from xicm.core.atomic import write_json_atomic
 from xicm.core.episode_loop import run_episodes
 from xicm.core.plugins import describe_plugins, get_registry
 from xicm.core.ray_shards import episode_runner, shard_settings
-from xicm.core.run_dir import RunDir, config_fingerprint, episode_keys
+from xicm.core.run_dir import ADDED_ON_RESUME, IDENTITY, RunDir, config_fingerprint, episode_keys, identity
 from xicm.core.tracking import Tracker
 from xicm.core.video import VideoSettings
+
+log = logging.getLogger(__name__)
 
 
 def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
@@ -23,7 +26,14 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     build.check_run(cfg, registry, tasks)
     shards = shard_settings(cfg)
     video = VideoSettings.from_config(cfg, out_dir)
-    RunDir(out_dir).check_same_run(cfg)
+    run_dir = RunDir(out_dir)
+    added = run_dir.check_same_run(cfg)
+    if added:
+        log.warning(
+            "resuming %s with options declared after it started (%s); its earlier episodes ran before they existed",
+            out_dir, ", ".join(f"{k}={v}" for k, v in added.items()),
+        )
+    added = run_dir.added_on_resume(added)  # this resume's and earlier resumes'
     out_dir.mkdir(parents=True, exist_ok=True)
 
     plugins = describe_plugins(registry.pm)
@@ -45,6 +55,8 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
             RunDir(out_dir).meta,
             {
                 "fingerprint": config_fingerprint(cfg),
+                IDENTITY: identity(cfg),
+                **({ADDED_ON_RESUME: added} if added else {}),
                 "tasks": tasks,
                 "splits": splits,
                 **runner.metadata,
@@ -61,7 +73,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
                 progress=bool(cfg.progress),
                 on_result=lambda r: tracker.log({"success": int(r.success), "steps": r.steps, f"task/{r.task}/success": int(r.success)}),
             )
-            summary = report.write_report(rows, splits, tasks, out_dir)
+            summary = report.write_report(rows, splits, tasks, out_dir, int(cfg.report.std_ddof))
             _write_html(cfg, out_dir)
             _track_summary(tracker, summary, rows, str(cfg.run_name), f"ours, {cfg.simulator.name}")
             tracker.log_run_media(rows, out_dir)
@@ -98,7 +110,7 @@ def _track_summary(tracker: Tracker, summary: dict[str, Any], rows: list[dict[st
         ["task", "split", "success", "std", "n", "ci_low", "ci_high"],
         [[r["task"], r["split"], r["success"], r["std"], r["n"], r["ci_low"], r["ci_high"]] for r in summary["tasks"]],
     )
-    ours = table2.our_row(rows, name)
+    ours = table2.our_row(rows, name, int(summary.get("std_ddof", 1)))
     if ours["groups"]:
         tracker.log_table("table2", *table2.flat_rows(ours, source))
         tracker.log_bars(

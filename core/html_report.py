@@ -12,7 +12,7 @@ from typing import Any
 
 from xicm.core import report_figures, report_media, table2
 from xicm.core.atomic import write_atomic
-from xicm.core.report import stage_seconds, summarise
+from xicm.core.report import stage_seconds, std_ddof, summarise
 from xicm.core.run_dir import RunDir
 
 REPORT_HTML = "report.html"
@@ -61,10 +61,10 @@ def run_context(run_dir: Path, inline_video_mb: float = INLINE_VIDEO_MB, pool: s
     meta = run.read_meta()
     rows = run.rows(meta)
     config = meta.get("config") or {}
-    summary = summarise(rows, meta["splits"], meta["tasks"])
+    summary = summarise(rows, meta["splits"], meta["tasks"], std_ddof(meta))
     label = _label(meta, run.path)
     simulator = (config.get("simulator") or {}).get("name", "?")
-    ours = table2.our_row(rows, label)
+    ours = table2.our_row(rows, label, std_ddof(meta))
     paper = table2.paper_table()
 
     by_task: dict[str, list[dict[str, Any]]] = defaultdict(list)

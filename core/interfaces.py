@@ -9,8 +9,10 @@ from typing import Any
 
 import numpy as np
 
+from xicm.core.spaces import ControlSpec
 from xicm.core.types import (
     Box,
+    ControlRecording,
     ControlStep,
     Demo,
     JointAction,
@@ -54,15 +56,44 @@ class Simulator(ABC):
     def execute(self, action: KeyAction | JointAction) -> StepOutcome:
         """Move to the key pose (or joint target), then set the gripper; never raises for a bad pose."""
 
-    def control_modes(self) -> tuple[str, ...]:
-        """The action spaces `step` accepts (the simulator's control_mode option picks one)."""
-        raise NotImplementedError(f"{type(self).__name__} has no per-step control (control_modes)")
+    def reset_state(self, task: str, seed: int, episode: int) -> None:
+        """reset() without rendering (the same scene). Default: reset() and drop its observation."""
+        self.reset(task, seed, episode)
+
+    def instruction(self) -> str:
+        """The current episode's instruction (its variation's wording). Default: from observe()."""
+        return self.observe(cameras=[]).instruction
+
+    def variation(self) -> int:
+        """The current episode's task variation (0, 1, ...: which instruction and targets it
+        drew). Default: 0, for simulators with one variation per task."""
+        return 0
+
+    def proprio(self) -> dict[str, np.ndarray]:
+        """The robot's state now, laid out as control_spec().state (what Observation.proprio
+        holds). Default: from observe()."""
+        return self.observe(cameras=[]).proprio
+
+    def image_sizes(self) -> dict[str, tuple[int, int]]:
+        """(height, width) of each camera observe() can render."""
+        raise NotImplementedError(f"{type(self).__name__} does not say its image sizes (image_sizes)")
+
+    def control_spec(self) -> ControlSpec:
+        """Its control modes (names, widths, bounds; the one `step` plays), the control rate
+        and the proprio layout (xicm.core.spaces): the one declaration every track reads."""
+        raise NotImplementedError(f"{type(self).__name__} declares no control modes (control_spec)")
 
     def step(self, action: Sequence[float]) -> StepOutcome:
-        """Advance one control period towards `action` (a vector in the chosen control mode);
+        """Advance one control period towards `action` (a vector in control_spec().control_mode);
         success is checked after it. A bad or unreachable action is a failed StepOutcome with
         its reason (error_kind "bad_action" / "unreachable"), never an exception."""
         raise NotImplementedError(f"{type(self).__name__} has no per-step control (step)")
+
+    def record_scripted(self, cameras: Sequence[str] | None = None) -> ControlRecording:
+        """Play the scripted solution from the reset state, recording at the control rate: the
+        proprio state, the commanded targets, RGB of `cameras` if given, and the actions that
+        replay it through `step` in each per-step control mode (what xicm-export writes)."""
+        raise NotImplementedError(f"{type(self).__name__} cannot record scripted demos at the control rate (record_scripted)")
 
     @abstractmethod
     def is_success(self) -> bool:

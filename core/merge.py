@@ -16,13 +16,11 @@ from typing import Any
 
 from xicm.core.atomic import write_atomic, write_json_atomic
 from xicm.core.errors import XicmError
-from xicm.core.report import write_report
-from xicm.core.run_dir import EPISODES, META, MERGE_MAY_DIFFER, RunDir, outside_identity
+from xicm.core.report import std_ddof, write_report
+from xicm.core.run_dir import EPISODES, META, MERGE_MAY_DIFFER, RunDir, flatten, outside_identity
 
 
 def merge_runs(out_dir: Path, run_dirs: list[Path]) -> dict[str, Any]:
-    from xicm.core.sweep import flatten
-
     runs = [RunDir(r) for r in run_dirs]
     for run in runs:
         if not run.is_run():
@@ -60,4 +58,4 @@ def merge_runs(out_dir: Path, run_dirs: list[Path]) -> dict[str, Any]:
     merged = {**metas[0], "config": config, "tasks": tasks, "splits": splits, "merged_from": [str(r) for r in run_dirs]}
     merged.pop("fingerprint", None)  # a merged folder is a report, not a run to resume
     write_json_atomic(out.meta, merged)
-    return write_report(rows, splits, tasks, out.path)
+    return write_report(rows, splits, tasks, out.path, std_ddof(metas[0]))

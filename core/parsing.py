@@ -10,6 +10,8 @@ from xicm.core import encoding
 from xicm.core.types import KeyAction
 
 MAX_ACTIONS = 26  # upstream keeps at most 26 actions from one reply
+#: X-ICM's fallback action (its agent's default when a reply cannot be read): near the start pose, gripper open
+XICM_DEFAULT_ACTION = (57, 49, 87, 0, 39, 0, 1)
 RANGES = "position 0-99, rotation 0-72, gripper 0/1"
 
 # An innermost bracketed group: '[' then anything but brackets then ']'.
@@ -68,6 +70,28 @@ def parse_actions(
     if out_of_range:
         return ParseError(f"action {out_of_range[0]} is out of range ({RANGES})")
     return [encoding.ints_to_action(g, workspace) for g in groups]
+
+
+def parse_actions_xicm(text: object, workspace: encoding.Box) -> tuple[list[KeyAction], str | None]:
+    """X-ICM's reading of a reply (its agent's re_match), and which fallback it took (None: none).
+
+    Every innermost [...] group with a digit in it is read as comma-separated integers. If any
+    item of any such group is not an integer, the whole reply becomes MAX_ACTIONS default actions;
+    if no group has 7 items, one default action (the policy then asks the LLM again). Otherwise
+    the 7-item groups, at most MAX_ACTIONS, with no range check: a position off the grid is
+    refused when it is executed, as upstream's planner refuses it.
+    """
+    text = text if isinstance(text, str) else ""
+    groups = [m.group(1) for m in _INNERMOST.finditer(text) if any(c.isdigit() for c in m.group(1))]
+    default = encoding.ints_to_action(XICM_DEFAULT_ACTION, workspace)
+    items = [[p.strip() for p in g.split(",")] for g in groups]
+    bad = next((g for g in items if not all(_INT.match(p) for p in g)), None)
+    if bad is not None:
+        return [default] * MAX_ACTIONS, f"item of [{', '.join(bad)}] is not an integer: {MAX_ACTIONS} default actions"
+    sevens = [[int(p) for p in g] for g in items if len(g) == 7][:MAX_ACTIONS]
+    if not sevens:
+        return [default], "no group of 7 integers: one default action"
+    return [encoding.ints_to_action(g, workspace) for g in sevens], None
 
 
 def partial_stop(text: str, max_actions: int = MAX_ACTIONS) -> str | None:

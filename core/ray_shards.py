@@ -5,7 +5,9 @@ Each actor builds the simulator and the policy once (core.build.build_run, as a 
 episodes.jsonl: `core.episode_loop.run_episodes` asks for the pending keys one by one, in key
 order, and this module answers from a window of keys handed out ahead to the actors. So the
 file is written exactly as by a local run (same order, never a duplicate), and a killed run
-resumes from the file as usual, losing at most the results still in the window.
+resumes from the file as usual, losing at most the results still in the window. An actor lost
+mid-run (its process or its whole node gone) is dropped and its unfinished keys go to the
+others; each row's extra["shard"] names the node and process that ran it.
 
 Ray is imported only when `shards.backend=ray` is used (`pip install 'xicm[scale]'`).
 """
@@ -115,8 +117,15 @@ class EpisodeWorker:
         self.episode_options = episode_options
         self.built = build_run(cfg)
 
-    def pid(self) -> int:
-        return os.getpid()
+    def where(self) -> dict[str, Any]:
+        """The Ray node and process this actor runs in (copied into each of its rows' extra["shard"])."""
+        import socket
+
+        import ray
+
+        context = ray.get_runtime_context()
+        return {"node_id": context.get_node_id(), "node_ip": ray.util.get_node_ip_address(),
+                "host": socket.gethostname(), "pid": os.getpid()}
 
     def metadata(self) -> dict[str, Any]:
         return self.built.metadata()
@@ -150,18 +159,25 @@ class RayEpisodeShards:
         self.in_flight: dict[Any, tuple[Key, int]] = {}  # ObjectRef -> (key, actor index)
         self.queued = [0] * settings.workers
         self.ready: dict[Key, EpisodeResult] = {}
+        self.position = {key: i for i, key in enumerate(order)}  # lost keys go back in this order
         self.episodes_run = [0] * settings.workers
-        self.pids: list[int] = []
+        self.alive = [True] * settings.workers
+        errors = ray.exceptions
+        # A worker's process or node gone (not an exception raised by the episode's code): run its keys elsewhere.
+        self._lost_worker_errors = (errors.RayActorError, errors.WorkerCrashedError, errors.NodeDiedError,
+                                    errors.ObjectLostError)
+        self.where: list[dict[str, Any]] = []
         try:
             actor_class = ray.remote(num_cpus=settings.cpus_per_worker)(EpisodeWorker)
             self.actors = [actor_class.remote(config, episode_options) for _ in range(settings.workers)]
-            self.pids = self._wait(ray.get, [a.pid.remote() for a in self.actors])  # every actor built
+            self.where = self._wait(ray.get, [a.where.remote() for a in self.actors])  # every actor built
             self.metadata = self._wait(ray.get, self.actors[0].metadata.remote())  # the same in every actor
         except BaseException:
             self.close()
             raise
         where = settings.address or "a local Ray cluster"
-        print(f"shards: {settings.workers} Ray workers on {where}, pids {', '.join(map(str, self.pids))}", flush=True)
+        placed = ", ".join(_worker_name(w) for w in self.where)
+        print(f"shards: {settings.workers} Ray workers on {where}: {placed}", flush=True)
 
     def _init_ray(self, settings: ShardSettings) -> None:
         ray = self._ray
@@ -171,9 +187,12 @@ class RayEpisodeShards:
                 ray.init(address=settings.address, log_to_driver=True)
             except (ConnectionError, RuntimeError, ValueError) as exc:
                 reason = " ".join(str(exc).split())[:200]
+                token = "" if os.environ.get("RAY_AUTH_MODE") == "token" else (
+                    "; a cluster with token authentication (on where `ray start --head` found ~/.ray/auth_token or "
+                    "RAY_AUTH_MODE=token) also needs RAY_AUTH_MODE=token and its token (RAY_AUTH_TOKEN or that file) here")
                 raise XicmError(
                     f"cannot join the Ray cluster at shards.address={settings.address} ({reason}); use the address "
-                    "`ray start --head` printed, or shards.address=null to start a local cluster"
+                    f"`ray start --head` printed, or shards.address=null to start a local cluster{token}"
                 ) from None
             return
         needed = math.ceil(settings.workers * settings.cpus_per_worker)
@@ -187,33 +206,62 @@ class RayEpisodeShards:
 
     def __call__(self, task: str, seed: int, episode: int) -> EpisodeResult:
         key = (task, int(seed), int(episode))
-        if key not in self.ready and key not in {k for k, _ in self.in_flight.values()}:
-            # Asked out of the expected order: run it now, ahead of the window.
-            with contextlib.suppress(ValueError):
-                self.queue.remove(key)
-            self._submit(key)
         while key not in self.ready:
+            if key not in {k for k, _ in self.in_flight.values()}:
+                # Asked out of the expected order, or its worker was lost: run it now, ahead of the window.
+                with contextlib.suppress(ValueError):
+                    self.queue.remove(key)
+                self._submit(key)
             self._feed()
             finished, _ = self._ray.wait(list(self.in_flight), num_returns=1)
             for ref in finished:
-                done_key, index = self.in_flight.pop(ref)
-                self.queued[index] -= 1
-                self.episodes_run[index] += 1
-                self.ready[done_key] = self._wait(self._ray.get, ref)
+                if ref in self.in_flight:  # not dropped with a lost worker
+                    self._collect(ref)
         result = self.ready.pop(key)
         self._feed()  # keep the actors busy while the driver writes this row
         return result
 
+    def _collect(self, ref) -> None:
+        done_key, index = self.in_flight.pop(ref)
+        self.queued[index] -= 1
+        try:
+            result = self._ray.get(ref)
+        except self._lost_worker_errors as exc:
+            self._lose(index, exc, [done_key])
+            return
+        except self._ray.exceptions.RayError as exc:
+            raise _worker_failed(exc) from exc
+        self.episodes_run[index] += 1
+        result.extra = {**result.extra, "shard": self.where[index]}
+        self.ready[done_key] = result
+
+    def _lose(self, index: int, exc: Exception, lost: list[Key]) -> None:
+        """Drop a lost actor (its process or node gone) and queue its unfinished keys first, in key order."""
+        for ref, (key, owner) in list(self.in_flight.items()):
+            if owner == index:
+                del self.in_flight[ref]
+                lost.append(key)
+        self.queue = deque(sorted([*self.queue, *lost], key=lambda k: self.position.get(k, -1)))
+        self.queued[index] = 0
+        self.alive[index] = False
+        print(f"shards: lost the Ray worker {_worker_name(self.where[index])} ({type(exc).__name__}); its "
+              f"{len(lost)} unfinished episode(s) run again on the {sum(self.alive)} other worker(s)", flush=True)
+        if not any(self.alive):
+            raise XicmError("every Ray shard worker was lost (their nodes or processes died); re-run to resume")
+
     def _feed(self) -> None:
         while self.queue and len(self.in_flight) + len(self.ready) < self.window:
-            index = min(range(len(self.actors)), key=self.queued.__getitem__)
+            index = self._least_loaded()
             if self.queued[index] >= QUEUED_PER_WORKER:
                 return
             self._submit(self.queue.popleft(), index)
 
+    def _least_loaded(self) -> int:
+        return min((i for i, alive in enumerate(self.alive) if alive), key=self.queued.__getitem__)
+
     def _submit(self, key: Key, index: int | None = None) -> None:
         if index is None:
-            index = min(range(len(self.actors)), key=self.queued.__getitem__)
+            index = self._least_loaded()
         ref = self.actors[index].run.remote(*key)
         self.in_flight[ref] = (key, index)
         self.queued[index] += 1
@@ -223,22 +271,31 @@ class RayEpisodeShards:
         try:
             return get(refs)
         except self._ray.exceptions.RayError as exc:
-            text = str(exc).strip()
-            cause = text.splitlines()[-1] if text else "no message"  # the worker's own exception line
-            raise XicmError(f"a Ray shard worker failed ({type(exc).__name__}: {cause}); re-run to resume") from exc
+            raise _worker_failed(exc) from exc
 
     def close(self) -> None:
         ray = self._ray
-        if self.pids:
-            counts = ", ".join(f"pid {p}: {n}" for p, n in zip(self.pids, self.episodes_run))
+        if self.where:
+            counts = ", ".join(f"{_worker_name(w)}: {n}" for w, n in zip(self.where, self.episodes_run))
             print(f"shards: episodes run per worker: {counts}", flush=True)
+        alive = [a for a, ok in zip(self.actors, self.alive) if ok]
         with contextlib.suppress(Exception):
-            ray.get([a.close.remote() for a in self.actors], timeout=60)
+            ray.get([a.close.remote() for a in alive], timeout=60)
         for actor in self.actors:
             with contextlib.suppress(Exception):
                 ray.kill(actor)
         if self._started:
             ray.shutdown()
+
+
+def _worker_failed(exc: Exception) -> XicmError:
+    text = str(exc).strip()
+    cause = text.splitlines()[-1] if text else "no message"  # the worker's own exception line
+    return XicmError(f"a Ray shard worker failed ({type(exc).__name__}: {cause}); re-run to resume")
+
+
+def _worker_name(where: dict[str, Any]) -> str:
+    return f"pid {where['pid']} on node {where['node_ip']} {where['node_id'][:8]}"
 
 
 def _check_reachable(address: str, timeout_s: float = 5.0) -> None:

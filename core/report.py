@@ -28,16 +28,24 @@ def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, flo
     return (float(ci.low), float(ci.high))
 
 
-def _mean_std(values: Sequence[float]) -> tuple[float, float]:
+def std_ddof(meta: dict[str, Any]) -> int:
+    """A run's std convention (run.json's config `report.std_ddof`; 1 for runs that predate it)."""
+    return int(((meta.get("config") or {}).get("report") or {}).get("std_ddof", 1))
+
+
+def _mean_std(values: Sequence[float], ddof: int = 1) -> tuple[float, float]:
     arr = np.asarray(values, float)
     if arr.size == 0:
         return (float("nan"), float("nan"))
-    std = float(arr.std(ddof=1)) if arr.size > 1 else 0.0
+    std = float(arr.std(ddof=ddof)) if arr.size > 1 else 0.0
     return (float(arr.mean()), std)
 
 
-def summarise(rows: Sequence[dict[str, Any]], splits: dict[str, str], task_order: Sequence[str]) -> dict[str, Any]:
-    """Success rates (percent) per task and per group; seeds are the unit of the std."""
+def summarise(
+    rows: Sequence[dict[str, Any]], splits: dict[str, str], task_order: Sequence[str], ddof: int = 1
+) -> dict[str, Any]:
+    """Success rates (percent) per task and per group; seeds are the unit of the std (ddof 1: the
+    sample std, ours; 0: numpy's default, X-ICM's gather_score.py)."""
     per_task_seed: dict[str, dict[int, list[bool]]] = defaultdict(lambda: defaultdict(list))
     errors: dict[str, dict[str, int]] = defaultdict(lambda: defaultdict(int))
     for r in rows:
@@ -52,7 +60,7 @@ def summarise(rows: Sequence[dict[str, Any]], splits: dict[str, str], task_order
         by_seed = per_task_seed[task]
         rates = [100.0 * np.mean(by_seed[s]) for s in seeds if by_seed.get(s)]
         flat = [x for s in seeds for x in by_seed.get(s, [])]
-        mean, std = _mean_std(rates)
+        mean, std = _mean_std(rates, ddof)
         lo, hi = wilson_interval(sum(flat), len(flat))
         task_rows.append(
             {
@@ -78,9 +86,11 @@ def summarise(rows: Sequence[dict[str, Any]], splits: dict[str, str], task_order
             rates = [100.0 * np.mean(per_task_seed[t][s]) for t in members if per_task_seed[t].get(s)]
             if rates:
                 seed_means.append(float(np.mean(rates)))
-        mean, std = _mean_std(seed_means)
+        mean, std = _mean_std(seed_means, ddof)
         group_rows.append({"group": label, "tasks": len(members), "success": mean, "std": std, "seeds": len(seed_means)})
-    return {"seeds": seeds, "tasks": task_rows, "groups": group_rows, "episodes": len(rows), "seconds": stage_seconds(rows)}
+    return {
+        "seeds": seeds, "tasks": task_rows, "groups": group_rows, "episodes": len(rows), "seconds": stage_seconds(rows), "std_ddof": ddof,
+    }
 
 
 def stage_seconds(rows: Sequence[dict[str, Any]]) -> dict[str, float]:
@@ -119,10 +129,12 @@ def markdown_table(summary: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def write_report(rows: list[dict[str, Any]], splits: dict[str, str], tasks: list[str], run_dir: Path) -> dict[str, Any]:
+def write_report(
+    rows: list[dict[str, Any]], splits: dict[str, str], tasks: list[str], run_dir: Path, ddof: int = 1
+) -> dict[str, Any]:
     """Summarise the rows and write the run folder's summary.json, table.md and tasks.csv."""
     run = RunDir(run_dir)
-    summary = summarise(rows, splits, tasks)
+    summary = summarise(rows, splits, tasks, ddof)
     write_json_atomic(run.summary, summary)
     media = "".join("\n" + line for line in media_lines(rows, run.path))
     write_atomic(run.table, markdown_table(summary) + media + "\n")

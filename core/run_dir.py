@@ -1,7 +1,7 @@
 """The run folder: its layout, finding runs, its episode rows, and what makes two runs the same.
 
     <run>/episodes.jsonl    one row per finished episode, appended as each ends
-    <run>/run.json          config, fingerprint, tasks and splits, plugins (written at start)
+    <run>/run.json          config, fingerprint and identity, tasks and splits, plugins (written at start)
     <run>/summary.json, table.md, tasks.csv     the report (rewritten at the end of each job)
     <run>/transcripts/<task>/s<seed>-e<episode:04d>.json       an episode's LLM prompts and replies
     <run>/videos/<task>/s<seed>-e<episode:04d>-PASS.mp4 (-FAIL)  an episode's rollout video
@@ -45,7 +45,9 @@ OUTSIDE_IDENTITY = (
     "paths", "progress", "tracking", "llm_cache", "run_name", "collect", "export", "shards", "video", "transcripts",
     "serve", "envs", "report",
 )
-GROWS_ON_RESUME = ("seeds", "episodes")  # re-running a run with more of them extends it
+GROWS_ON_RESUME = ("seeds", "episodes")
+IDENTITY = "identity"  # run.json's key for identity(cfg): what a resume compares key by key
+ADDED_ON_RESUME = "added_on_resume"  # run.json's key: options resumes added, with their values  # re-running a run with more of them extends it
 MERGE_MAY_DIFFER = ("benchmark.tasks", "seeds", "episodes")  # merged runs cover different tasks/seeds
 
 FOLDER_NAME_LIMIT = 131  # characters of a multirun job's folder name (the xicm_dirname resolver)
@@ -171,16 +173,36 @@ class RunDir:
         with open(self.episodes, "r+b") as f:
             f.truncate(data.rfind(b"\n") + 1)
 
-    def check_same_run(self, cfg: DictConfig | dict[str, Any]) -> None:
-        """Refuse to mix episodes of two different configs in one folder (ConfigError)."""
+    def check_same_run(self, cfg: DictConfig | dict[str, Any]) -> dict[str, Any]:
+        """Refuse to mix episodes of two different configs in one folder (ConfigError naming the
+        keys that differ). A config that only adds keys the run's config did not have (options
+        declared after the run started) resumes it: those keys and their values are returned,
+        so the caller can say so; {} when nothing was added."""
         if not self.meta.exists():
-            return
-        old, new = self.read_meta().get("fingerprint"), config_fingerprint(cfg)
-        if old != new:
+            return {}
+        meta = self.read_meta()
+        old_print, new_print = meta.get("fingerprint"), config_fingerprint(cfg)
+        if old_print == new_print:
+            return {}
+        # run.json files written before IDENTITY existed hold only the resolved config
+        old = meta.get(IDENTITY)
+        new = identity(cfg, resolve=old is None)
+        if old is None:
+            old = identity(meta.get("config") or {})
+        changed = [f"{k} {old[k]!r} -> {new[k]!r}" for k in sorted(old.keys() & new.keys()) if old[k] != new[k]]
+        changed += [f"{k} {old[k]!r} -> (absent)" for k in sorted(old.keys() - new.keys())]
+        if changed or not old:
+            shown = "; ".join(changed[:5]) + (f"; and {len(changed) - 5} more" if len(changed) > 5 else "")
             raise ConfigError(
-                f"{self.path} holds episodes of a different config (fingerprint {old} != {new}); "
-                "choose another output folder with hydra.run.dir=... or delete that one"
+                f"{self.path} holds episodes of a different config (fingerprint {old_print} != {new_print}"
+                f"{': ' + shown if shown else ''}); choose another output folder with hydra.run.dir=... or delete that one"
             )
+        return {k: new[k] for k in sorted(new.keys() - old.keys())}
+
+    def added_on_resume(self, added: dict[str, Any]) -> dict[str, Any]:
+        """`added` (from check_same_run) joined to what earlier resumes of this run added."""
+        earlier = (self.read_meta().get(ADDED_ON_RESUME) or {}) if self.meta.exists() else {}
+        return {**earlier, **added}
 
 
 def video_passed(path: str | Path) -> bool:
@@ -217,6 +239,23 @@ def config_fingerprint(cfg: DictConfig | dict[str, Any]) -> str:
     data = OmegaConf.to_container(cfg, resolve=False) if isinstance(cfg, DictConfig) else dict(cfg)
     kept = {k: v for k, v in data.items() if not outside_identity(k, GROWS_ON_RESUME)}
     return hashlib.sha256(json.dumps(kept, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def flatten(data: Any, prefix: str = "") -> dict[str, Any]:
+    """A nested config as {dotted.key: value}; lists become their JSON text."""
+    if isinstance(data, dict):
+        out: dict[str, Any] = {}
+        for key, value in data.items():
+            out.update(flatten(value, f"{prefix}{key}."))
+        return out
+    return {prefix[:-1]: json.dumps(data) if isinstance(data, list) else data}
+
+
+def identity(cfg: DictConfig | dict[str, Any], resolve: bool = False) -> dict[str, Any]:
+    """The config's keys that make a run what it is, as {dotted.key: value} (run.json's IDENTITY:
+    unresolved, so `${paths.cache}/...` reads the same on every machine)."""
+    data = OmegaConf.to_container(cfg, resolve=resolve) if isinstance(cfg, DictConfig) else dict(cfg)
+    return {k: v for k, v in flatten(data).items() if not outside_identity(k, GROWS_ON_RESUME)}
 
 
 def short_name(text: str, limit: int) -> str:

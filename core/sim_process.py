@@ -78,8 +78,29 @@ class SimulatorProcess(Simulator):
     def reset(self, task, seed, episode):
         return self._call("reset", task, seed, episode)
 
+    def reset_state(self, task, seed, episode):
+        return self._call("reset_state", task, seed, episode)
+
+    def instruction(self):
+        return self._call("instruction")
+
+    def variation(self):
+        return self._call("variation")
+
     def observe(self, cameras=None):
         return self._call("observe", cameras)
+
+    def proprio(self):
+        return self._call("proprio")
+
+    def image_sizes(self):
+        return self._call("image_sizes")
+
+    def control_spec(self):
+        return self._call("control_spec")
+
+    def record_scripted(self, cameras=None):
+        return self._call("record_scripted", cameras)
 
     def execute(self, action):
         return self._call("execute", action)

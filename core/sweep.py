@@ -17,19 +17,10 @@ from pathlib import Path
 from typing import Any
 
 from xicm.core.atomic import write_atomic, write_json_atomic
-from xicm.core.report import summarise
-from xicm.core.run_dir import RunDir, outside_identity
+from xicm.core.report import std_ddof, summarise
+from xicm.core.run_dir import RunDir, flatten, outside_identity
 
 SWEEP_FILES = ("sweep.md", "sweep.csv", "sweep.json", "sweep.png")  # written in the folder above the runs
-
-
-def flatten(data: Any, prefix: str = "") -> dict[str, Any]:
-    if isinstance(data, dict):
-        out: dict[str, Any] = {}
-        for key, value in data.items():
-            out.update(flatten(value, f"{prefix}{key}."))
-        return out
-    return {prefix[:-1]: json.dumps(data) if isinstance(data, list) else data}
 
 
 def recorded_overrides(run: Path) -> dict[str, Any] | None:
@@ -71,7 +62,7 @@ def collect_sweep(runs: list[Path]) -> dict[str, Any]:
     axes = varying(flats)
     rows = []
     for run, meta, flat in zip(runs, metas, flats):
-        summary = summarise(RunDir(run).rows(meta), meta["splits"], meta["tasks"])
+        summary = summarise(RunDir(run).rows(meta), meta["splits"], meta["tasks"], std_ddof(meta))
         rows.append(
             {
                 **{a: flat.get(a) for a in axes},

@@ -1,6 +1,7 @@
 """The paper's Table 2 layout: the 23 unseen AGNOSTOS tasks as columns (paper order), then
 Level-1 / Level-2 / All; our run's row beside the paper's published rows (core/paper_table2.yaml),
-which come from another simulator and are always labelled with their source."""
+which come from another simulator and are always labelled with their source. The X-ICM rows take
+their per-task cells from X-ICM's own logs (core/xicm_logs.yaml)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from xicm.core import xicm_logs
 from xicm.core.report import summarise, wilson_interval
 
 PAPER_TABLE = Path(__file__).with_name("paper_table2.yaml")
@@ -17,10 +19,26 @@ LEVELS = ("Level-1", "Level-2", "All")
 
 @functools.lru_cache(maxsize=1)
 def paper_table() -> dict[str, Any]:
-    """{'source', 'citation', 'level1', 'level2', 'rows': [{'name', 'level1', 'level2', 'all', 'all_std', 'tasks'}]}"""
+    """{'source', 'citation', 'level1', 'level2', 'rows': [{'name', 'level1', 'level2', 'all', 'all_std',
+    'tasks', 'task_notes'}]}; a row with logs in core/xicm_logs.yaml gets its per-task means from them
+    and a note per cell (seeds, std, source)."""
     import yaml
 
-    return yaml.safe_load(PAPER_TABLE.read_text(encoding="utf-8"))
+    table = yaml.safe_load(PAPER_TABLE.read_text(encoding="utf-8"))
+    logged, src = xicm_logs.runs(), xicm_logs.source()
+    for row in table["rows"]:
+        row.setdefault("tasks", {})
+        row["task_notes"] = {}
+        if row["name"] in logged:
+            ends = xicm_logs.episode_ends(logged[row["name"]])
+            for task, s in xicm_logs.task_success(logged[row["name"]]).items():
+                e = ends[task]
+                row["tasks"][task] = round(s["mean"], 2)
+                row["task_notes"][task] = (
+                    f"{task}: mean of {s['seeds']} seeds (std {s['std']:.1f}); of {e['episodes']} episodes "
+                    f"{100 * e['early'] / e['episodes']:.0f} % failed early, {100 * e['full'] / e['episodes']:.0f} % "
+                    f"used all 25 key actions, mean {e['mean_steps']:.1f} key actions; X-ICM's logs, {src['repo']} at {src['commit'][:7]}")
+    return table
 
 
 def columns() -> list[str]:
@@ -35,7 +53,7 @@ def pooled(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     return {"n": n, "successes": k, "ci_low": 100 * lo, "ci_high": 100 * hi}
 
 
-def our_row(rows: Sequence[dict[str, Any]], name: str) -> dict[str, Any]:
+def our_row(rows: Sequence[dict[str, Any]], name: str, ddof: int = 1) -> dict[str, Any]:
     """Our run in the Table-2 layout: per column task its summary row (absent when not run),
     per level mean (std over seeds), seeds, and the pooled n and Wilson interval.
     Levels are the paper's (its two task lists), so 'All' never includes seen tasks."""
@@ -43,7 +61,7 @@ def our_row(rows: Sequence[dict[str, Any]], name: str) -> dict[str, Any]:
     cols = columns()
     splits = {**{t: "level1" for t in table["level1"]}, **{t: "level2" for t in table["level2"]}}
     mine = [r for r in rows if r["task"] in splits]
-    summary = summarise(mine, splits, cols)
+    summary = summarise(mine, splits, cols, ddof)
     groups = {}
     for g in summary["groups"]:
         members = [r for r in mine if g["group"] == "All" or splits[r["task"]] == g["group"].lower().replace("-", "")]

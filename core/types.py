@@ -32,7 +32,7 @@ class JointAction:
 @dataclass(frozen=True)
 class ControlStep:
     """One control period of per-step control (`Simulator.step`): the action vector in the
-    simulator's control mode (simulator.control_mode; layouts in docs/DESIGN.md). A policy
+    simulator's control mode (Simulator.control_spec().step_mode: its columns and bounds). A policy
     returns one, or several as an action chunk."""
 
     values: tuple[float, ...]
@@ -60,9 +60,15 @@ class Observation:
     object_names: list[str]  # the task objects to describe in the prompt, in prompt order
     gripper: KeyAction  # current end-effector pose and gripper state
     joint_positions: np.ndarray
-    #: joint_positions (7), gripper_width (1, m), tcp_pose (7: xyz + wxyz, robot base frame),
-    #: gripper_open (1: the commanded state, 1.0 / 0.0); empty where a simulator has none
+    #: laid out as Simulator.control_spec().state (SAPIEN: joint_positions (7), gripper_width (1, m),
+    #: tcp_pose (7: xyz + wxyz, robot base frame), gripper_open (1: the commanded state, 1.0 / 0.0));
+    #: empty where a simulator has none
     proprio: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def first_camera(self) -> str | None:
+        """The camera whose pictures a pool stores and X-ICM's query shows: the first one rendered,
+        in the simulator's own order (simulator.cameras; SAPIEN's starts with front); None if none was."""
+        return next(iter(self.cameras), None)
 
 
 @dataclass(frozen=True)
@@ -120,7 +126,7 @@ class ControlRecording:
     Index t runs over the T + 1 states: the reset state, then the state after each of the T
     control steps. The targets at index t are the commands in force at the end of control
     period t - 1 (index 0: the hold target at reset); action t of any control mode leads from
-    state t to the targets at t + 1 (plugins' control_modes.actions).
+    state t to the targets at t + 1 (`actions` holds them per per-step control mode).
     """
 
     task: str
@@ -129,14 +135,16 @@ class ControlRecording:
     instruction: str
     control_hz: float
     proprio: dict[str, np.ndarray]  # name -> (T + 1, d), the layout of Observation.proprio
-    joint_targets: np.ndarray  # (T + 1, 7) commanded arm joint targets (rad)
-    tcp_targets: np.ndarray  # (T + 1, 7) TCP pose of the joint targets (forward kinematics), base frame
+    joint_targets: np.ndarray  # (T + 1, n_joints) commanded arm joint targets (SAPIEN: the Panda's 7, rad)
+    tcp_targets: np.ndarray  # (T + 1, 7) TCP pose (xyz + wxyz) of the joint targets, robot base frame
     gripper_commands: np.ndarray  # (T + 1,) 1.0 open / 0.0 closed
     rgb: dict[str, np.ndarray] | None  # camera -> (T + 1, H, W, 3) uint8, None when not rendered
     key_action_steps: list[int]  # per key action: the control step (0-based) during which it ended
     key_actions: list[KeyAction]
     success: bool
     error: str | None = None  # why the demonstrator stopped early, if it did
+    #: per-step control mode -> (T, width) actions that replay the recording through step()
+    actions: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def steps(self) -> int:
@@ -168,7 +176,7 @@ class Query:
     task: str
     instruction: str
     objects: dict[str, tuple[float, float, float]]
-    front_rgb: np.ndarray | None = None
+    front_rgb: np.ndarray | None = None  # the first camera's picture (Observation.first_camera; SAPIEN: front)
     missing: tuple[str, ...] = ()  # object names the detector did not find (the prompt says so)
 
 

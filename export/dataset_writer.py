@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from xicm.core.atomic import write_dir_atomic, write_json_atomic
+from xicm.core.spaces import ControlSpec
 from xicm.export import features as feats
 from xicm.export.lerobot_env import check_ffmpeg, env_python, run_script
 
@@ -22,15 +23,19 @@ def write_dataset(
     repo_id: str,
     fps: int,
     sizes: dict[str, tuple[int, int]],
-    action_space: str,
+    spec: ControlSpec,
     use_videos: bool,
     frames: str = "control",
     vcodec: str,
     cache: str | Path,
+    episode_metadata: list[dict] | None = None,
     log=print,
 ) -> None:
+    """`episode_metadata`: per episode, extra columns of meta/episodes (xicm.export.provenance)."""
+    if episode_metadata is not None and len(episode_metadata) != len(episodes):
+        raise ValueError(f"{len(episode_metadata)} rows of episode metadata for {len(episodes)} episodes")
     python = env_python(cache, log)
-    features = feats.features(sizes, action_space, use_videos, frames)
+    features = feats.features(sizes, spec, use_videos, frames)
     rows = None  # every staged row is a frame; key frames keep each key action's first step
     if frames == "key":
         rows = []
@@ -47,12 +52,13 @@ def write_dataset(
             "fps": int(fps),
             "robot_type": ROBOT_TYPE,
             "features": features,
-            "columns": {key: feats.staged_column(key, action_space, frames) for key in features},
+            "columns": {key: feats.staged_column(key, spec.control_mode, frames) for key in features},
             "use_videos": bool(use_videos),
             "vcodec": vcodec,
             "image_writer_threads": min(4, os.cpu_count() or 1),
             "episodes": [str(p) for p in episodes],
             "rows": rows,
+            "episode_metadata": episode_metadata,
         }
         write_json_atomic(manifest_path, manifest)
         run_script(python, "lerobot_writer.py", str(manifest_path))

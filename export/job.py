@@ -20,8 +20,8 @@ from xicm.core.config_schema import XicmConfig
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import get_registry
 from xicm.core.schema import check_config
-from xicm.export.features import ACTION_SPACES
-from xicm.export.staging import Staging
+from xicm.export.provenance import Provenance
+from xicm.export.staging import Staging, staged_scene
 
 
 def export_tasks(cfg: DictConfig) -> list[str]:
@@ -53,10 +53,10 @@ def check_export(cfg: DictConfig) -> tuple[list[str], dict]:
         defaults = OmegaConf.structured(simulator.extra["options"])
         options = {"name": options["name"], **OmegaConf.to_container(OmegaConf.merge(defaults, {
             k: v for k, v in options.items() if k != "name"}))}
-    if "control_mode" not in options or options["control_mode"] not in ACTION_SPACES:
+    if options.get("control_mode") is None:
         raise ConfigError(
-            f"simulator '{cfg.simulator.name}' has no per-step control_mode for the dataset's action "
-            f"(one of {', '.join(ACTION_SPACES)}); xicm-export needs simulator=sapien"
+            f"simulator '{cfg.simulator.name}' has no per-step control_mode for the dataset's action; "
+            "xicm-export needs a simulator with per-step control (Simulator.control_spec)"
         )
     tasks = export_tasks(cfg)
     build.check_tasks(registry, tasks, cfg.simulator.name)
@@ -67,34 +67,35 @@ def run_export(cfg: DictConfig) -> dict:
     tasks, options = check_export(cfg)
     ex = cfg.export
     out_dir = Path(ex.out_dir)
-    from xicm.plugins.simulators.sapien.options import sizes_per_camera
-
-    fps = float(options["control_hz"])
-    if fps != int(fps):
-        raise ConfigError(f"simulator.control_hz must be a whole number of steps per second for a LeRobot dataset (fps), not {fps}")
     cameras = list(ex.cameras)
-    sizes = sizes_per_camera(options["image_size"], cameras)
     settings = {  # what staged episodes depend on: resuming with other values would mix them
         "simulator": {k: v for k, v in options.items() if k != "control_mode"},
         "seed": int(ex.seed),
-        "columns": 2,  # version of the staged arrays (2: with key_action.pose)
+        "columns": 3,  # version of the staged arrays (2: with key_action.pose, 3: with the scene's variation)
     }
     staging = Staging(out_dir.with_name(f"{out_dir.name}.staging"), settings)
     workers = resolve_workers(ex.workers)
     walk = EpisodeWalk(tasks, int(ex.demos_per_task), int(ex.seed), float(ex.max_attempts_factor), in_flight=2 * workers)
     start = time.perf_counter()
-    counts = record_all(walk, staging, options, cameras, int(ex.seed), workers, bool(cfg.progress))
+    with Recorders(options, cameras, int(ex.seed), workers) as recorders:
+        spec = recorders.facts["spec"]
+        fps = float(spec.control_hz)
+        if fps != int(fps):
+            raise ConfigError(f"simulator.control_hz must be a whole number of steps per second for a LeRobot dataset (fps), not {fps}")
+        counts = walk.run(recorders.attempt, None, recorders.facts["workspace"], bool(cfg.progress), writer=staging, desc="export")
     recorded = time.perf_counter() - start
     episodes = [p for t in tasks for p in staging.episodes(t, int(ex.seed), int(ex.demos_per_task))]
     if not episodes:
         raise ConfigError(f"no scripted demo of {', '.join(tasks)} succeeded: nothing to export")
     from xicm.export.dataset_writer import dataset_size, write_dataset
 
+    recorded_in = {k: v for k, v in options.items() if k != "name"}
+    provenance = [Provenance(*staged_scene(p), options["name"], recorded_in).columns() for p in episodes]
     start = time.perf_counter()
     write_dataset(
-        out_dir, episodes, repo_id=str(ex.repo_id), fps=int(fps), sizes=sizes,
-        action_space=str(options["control_mode"]), use_videos=bool(ex.use_videos), frames=str(ex.frames),
-        vcodec=str(ex.vcodec), cache=cfg.paths.cache,
+        out_dir, episodes, repo_id=str(ex.repo_id), fps=int(fps), sizes=recorders.facts["sizes"],
+        spec=spec, use_videos=bool(ex.use_videos), frames=str(ex.frames),
+        vcodec=str(ex.vcodec), cache=cfg.paths.cache, episode_metadata=provenance,
     )
     written = time.perf_counter() - start
     size = dataset_size(out_dir)
@@ -107,38 +108,58 @@ def run_export(cfg: DictConfig) -> dict:
             "write_s": written}
 
 
-def record_all(walk: EpisodeWalk, staging: Staging, options: dict, cameras, seed: int, workers: int, progress: bool):
-    """Run the walk over episodes in this process (workers == 1) or in worker processes."""
-    if workers == 1:
+class Recorders:
+    """The simulators that record: one in this process (workers == 1) or one per worker process.
+    `facts` holds what the dataset's layout is read from (the simulator's workspace, control
+    spec and camera sizes); `attempt(task, episode)` records one episode (a Future)."""
+
+    def __init__(self, options: dict, cameras: list[str], seed: int, workers: int):
+        self.options, self.cameras, self.seed, self.workers = options, cameras, seed, workers
+        self.simulator = self.pool = None
+
+    def __enter__(self) -> "Recorders":
+        if self.workers == 1:
+            self.simulator = get_registry().create_simulator(self.options)
+            self.facts = _facts(self.simulator, self.cameras)
+            return self
+        from concurrent.futures import ProcessPoolExecutor
+
+        context = multiprocessing.get_context("spawn")  # a forked SAPIEN/Vulkan state is not safe
+        self.pool = ProcessPoolExecutor(self.workers, mp_context=context, initializer=_worker_start,
+                                        initargs=(self.options, self.cameras))
+        try:
+            self.facts = self.pool.submit(_worker_facts).result()
+        except BaseException:
+            self.pool.shutdown(cancel_futures=True)
+            raise
+        return self
+
+    def attempt(self, task: str, episode: int) -> Future:
+        if self.pool is not None:
+            return self.pool.submit(_worker_attempt, task, self.seed, episode)
         from xicm.export.record import attempt_episode
 
-        simulator = get_registry().create_simulator(options)
-        try:
-            def run(task: str, episode: int) -> Future:
-                done: Future = Future()
-                done.set_result(attempt_episode(simulator, task, seed, episode, cameras))
-                return done
+        done: Future = Future()
+        done.set_result(attempt_episode(self.simulator, task, self.seed, episode, self.cameras))
+        return done
 
-            return walk.run(run, None, simulator.workspace, progress, writer=staging, desc="export")
-        finally:
-            simulator.close()
-    from concurrent.futures import ProcessPoolExecutor
-    from concurrent.futures.process import BrokenProcessPool
+    def __exit__(self, kind, exc, tb) -> None:
+        if self.simulator is not None:
+            self.simulator.close()
+        if self.pool is not None:
+            self.pool.shutdown(cancel_futures=exc is not None)
+        from concurrent.futures.process import BrokenProcessPool
 
-    context = multiprocessing.get_context("spawn")  # a forked SAPIEN/Vulkan state is not safe
-    with ProcessPoolExecutor(workers, mp_context=context, initializer=_worker_start, initargs=(options, cameras)) as pool:
-        workspace = pool.submit(_worker_workspace).result()
-
-        def run(task: str, episode: int) -> Future:
-            return pool.submit(_worker_attempt, task, seed, episode)
-
-        try:
-            return walk.run(run, None, workspace, progress, writer=staging, desc="export")
-        except BrokenProcessPool as exc:
+        if isinstance(exc, BrokenProcessPool):
             raise RuntimeError(
                 "an export worker process died (see its message above); every recorded episode is staged: "
                 "run the same command again to resume"
             ) from exc
+
+
+def _facts(simulator, cameras: list[str]) -> dict:
+    sizes = simulator.image_sizes()
+    return {"workspace": simulator.workspace, "spec": simulator.control_spec(), "sizes": {c: tuple(sizes[c]) for c in cameras}}
 
 
 # --- worker processes: one simulator each, kept for the whole export -------------------------
@@ -154,8 +175,8 @@ def _worker_start(options: dict, cameras: list[str]) -> None:
     _WORKER["cameras"] = cameras
 
 
-def _worker_workspace():
-    return _WORKER["simulator"].workspace
+def _worker_facts() -> dict:
+    return _facts(_WORKER["simulator"], _WORKER["cameras"])
 
 
 def _worker_attempt(task: str, seed: int, episode: int):

@@ -4,7 +4,9 @@ Runs inside the lerobot environment (lerobot_env.py): imports only the standard 
 numpy and lerobot. Usage: python lerobot_reader.py ROOT REPO_ID OUT.npz
 
 OUT.npz holds: num_frames, num_episodes, features (JSON text), tasks (each episode's task
-text), episode_index (per frame), every non-image column of the dataset (per frame, keyed
+text), episodes (JSON text: each episode's row of meta/episodes as lerobot reads it, its
+"stats/*" left out; an xicm export's "scene/*" columns among them, xicm/export/provenance.py),
+episode_index (per frame), every non-image column of the dataset (per frame, keyed
 by feature name), and for each camera the decoded first and last frame of every episode
 (images.<camera>: (episodes, 2, H, W, 3) uint8).
 """
@@ -36,6 +38,7 @@ def main(root: str, repo_id: str, out: str) -> None:
         num_episodes=dataset.num_episodes,
         features=json.dumps({k: {**v, "shape": list(v["shape"])} for k, v in dataset.features.items()}),
         tasks=np.array(tasks),
+        episodes=json.dumps(dataset.meta.episodes.to_list()),
         **{f"column.{key}": value for key, value in columns.items()},
         **{f"images.{key.removeprefix('observation.images.')}": np.stack(v) for key, v in images.items()},
     )

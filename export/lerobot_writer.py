@@ -6,7 +6,9 @@ standard library, numpy and lerobot. Usage: python lerobot_writer.py MANIFEST.js
 The manifest (written by xicm.export.dataset_writer) names the dataset (repo_id, root, fps,
 robot_type, features, use_videos, vcodec), which staged array fills each feature (`columns`),
 and lists the staged episodes, each an .npz of arrays with T rows and the episode's task text
-under "instruction"; `rows` (null: all) lists, per episode, the staged rows that become frames.
+under "instruction"; `rows` (null: all) lists, per episode, the staged rows that become frames;
+`episode_metadata` (null: none) gives, per episode, extra columns of meta/episodes/*.parquet
+(where the episode came from: xicm/export/provenance.py), written by lerobot with its own columns.
 """
 
 import json
@@ -30,6 +32,9 @@ def main(manifest_path: str) -> None:
         vcodec=manifest["vcodec"],
         image_writer_threads=manifest["image_writer_threads"],
     )
+    extra = manifest.get("episode_metadata")
+    if extra is not None:
+        _add_episode_columns(dataset.meta, extra)
     for n, path in enumerate(manifest["episodes"], start=1):
         with np.load(path) as staged:
             columns = {key: staged[manifest["columns"][key]] for key in features}
@@ -40,6 +45,19 @@ def main(manifest_path: str) -> None:
         dataset.save_episode()
         print(f"lerobot_writer: episode {n}/{len(manifest['episodes'])} ({len(rows)} frames)", flush=True)
     dataset.finalize()
+
+
+def _add_episode_columns(meta, extra: list[dict]) -> None:
+    """LeRobotDataset.save_episode hands each episode's row to meta.save_episode (its
+    `episode_metadata`: where the episode's frames and videos lie); add the episode's own
+    columns to that row, so lerobot's metadata writer stores them beside its columns."""
+    save = meta.save_episode
+
+    def save_with_columns(episode_index, episode_length, episode_tasks, episode_stats, episode_metadata):
+        return save(episode_index, episode_length, episode_tasks, episode_stats,
+                    {**episode_metadata, **extra[episode_index]})
+
+    meta.save_episode = save_with_columns
 
 
 if __name__ == "__main__":

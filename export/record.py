@@ -1,8 +1,8 @@
 """One scripted demo recorded at the control rate -> a StagedEpisode (runs in a worker process).
 
 The simulator's `record_scripted(cameras)` plays the task's scripted solution from the reset
-state and returns the control-rate recording; `actions(recording, mode)` (the SAPIEN plugin's
-control_modes, shared with step() and the Gymnasium env) turns it into each action space.
+state and returns the control-rate recording with its actions in every per-step control mode;
+the columns follow the simulator's `control_spec()`.
 """
 
 from __future__ import annotations
@@ -21,27 +21,27 @@ class NoDemo(Exception):
 
 
 def record_episode(simulator: Simulator, task: str, seed: int, episode: int, cameras: list[str]) -> StagedEpisode:
-    from xicm.plugins.simulators.sapien.control_modes import actions
-
+    spec = simulator.control_spec()
     simulator.reset(task, seed, episode)
+    variation = simulator.variation()
     recording = simulator.record_scripted(cameras=list(cameras))
     if not recording.success:
         raise NoDemo("the scripted demonstration did not succeed")
     arrays: dict[str, np.ndarray] = {}
-    for space in feats.ACTION_SPACES:
-        arrays[f"action.{space}"] = np.asarray(actions(recording, space), dtype=np.float32)
-    steps = len(arrays["action.ee_delta"])
+    for mode in spec.mode_names(per_step=True):
+        arrays[f"action.{mode}"] = np.asarray(recording.actions[mode], dtype=np.float32)
+    steps = len(arrays[f"action.{spec.control_mode}"])
     if steps == 0 or not recording.key_actions:
         raise NoDemo("the recording has no control steps or no key actions")
     for camera in cameras:  # the picture before each step (the final state's is not a frame)
         arrays[feats.image_key(camera)] = np.asarray(recording.rgb[camera][:steps], dtype=np.uint8)
     arrays["observation.state"] = np.concatenate(
-        [np.asarray(recording.proprio[part], dtype=np.float32).reshape(-1, len(names))[:steps]
-         for part, names in feats.STATE_PARTS.items()],
+        [np.asarray(recording.proprio[part.name], dtype=np.float32).reshape(-1, part.width)[:steps]
+         for part in spec.state],
         axis=1,
     )
     arrays.update(key_action_columns(recording.key_action_steps, recording.key_actions, steps, simulator.workspace))
-    return StagedEpisode(task, int(seed), int(episode), recording.instruction, arrays)
+    return StagedEpisode(task, int(seed), int(episode), recording.instruction, variation, arrays)
 
 
 def key_action_columns(key_steps, key_actions, steps: int, workspace) -> dict[str, np.ndarray]:

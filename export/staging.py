@@ -2,7 +2,8 @@
 JSON per attempt, so a killed export resumes where it stopped (core.collect_walk drives it).
 
     <staging>/settings.json                      what the episodes were recorded with
-    <staging>/episodes/<task>/s<seed>/e<NNNN>.npz   arrays named after the dataset's features
+    <staging>/episodes/<task>/s<seed>/e<NNNN>.npz   arrays named after the dataset's features,
+                                                    the instruction and the scene's variation
     <staging>/attempts/<task>/s<seed>/e<NNNN>.json  {"success", "error", "note"}
 """
 
@@ -28,6 +29,7 @@ class StagedEpisode:
     seed: int
     episode: int
     instruction: str
+    variation: int  # the task variation reset(task, seed, episode) drew (Simulator.variation())
     arrays: dict[str, np.ndarray]  # feature name -> (T, ...) array
 
     @property
@@ -65,7 +67,8 @@ class Staging:
 
     def write(self, staged: StagedEpisode) -> None:
         buffer = io.BytesIO()
-        np.savez_compressed(buffer, instruction=np.array(staged.instruction), **staged.arrays)
+        np.savez_compressed(buffer, instruction=np.array(staged.instruction), variation=np.array(staged.variation),
+                            **staged.arrays)
         write_atomic(self.episode_path(staged.demo_id), buffer.getvalue())
 
     def log_attempt(self, task: str, seed: int, episode: int, success: bool, note: str = "", error: bool = False) -> None:
@@ -75,7 +78,7 @@ class Staging:
     def attempts(self) -> dict[tuple[str, int, int], Attempt]:
         out = {}
         for path in (self.root / "attempts").glob("*/s*/e*.json"):
-            task, seed, episode = path.parent.parent.name, int(path.parent.name[1:]), int(path.stem[1:])
+            task, seed, episode = _scene_of(path)
             row = json.loads(path.read_text())
             out[(task, seed, episode)] = Attempt(row["success"], row["error"], row["note"])
         return out
@@ -84,3 +87,15 @@ class Staging:
         """The first `limit` staged episodes of a task, in episode order (what a sequential run kept)."""
         found = sorted((self.root / "episodes" / task / f"s{int(seed)}").glob("e*.npz"))
         return found[:limit]
+
+
+def staged_scene(path: Path) -> tuple[str, int, int, int]:
+    """(task, seed, episode, variation) of a staged episode file."""
+    with np.load(path) as staged:
+        variation = int(staged["variation"])
+    return (*_scene_of(path), variation)
+
+
+def _scene_of(path: Path) -> tuple[str, int, int]:
+    """(task, seed, episode) from a staged file's path: <task>/s<seed>/e<NNNN>.<ext>."""
+    return path.parent.parent.name, int(path.parent.name[1:]), int(path.stem[1:])

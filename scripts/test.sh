@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
-# Set everything up, then run the whole test suite (slow tests included). Extra args go to pytest.
+# Set everything up, then run the whole test suite (slow tests included; CI runs this). Extra args
+# go to pytest, e.g. `bash scripts/test.sh -m "not slow"` for the fast lane. It installs every extra,
+# so a skipped test fails here (XICM_STRICT_SKIPS=1, tests/strict_skips.py) unless it names the platform.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -11,5 +13,5 @@ if ! command -v cmake >/dev/null || ! command -v g++ >/dev/null; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends cmake g++ make >/dev/null
 fi
 PYTHON=.venv/bin/python bash scripts/build_llamacpp.sh >/dev/null
-export WANDB_MODE=disabled HF_HUB_OFFLINE=1 TRANSFORMERS_OFFLINE=1
+export WANDB_MODE=disabled HF_HUB_OFFLINE=1 TRANSFORMERS_OFFLINE=1 XICM_STRICT_SKIPS="${XICM_STRICT_SKIPS:-1}"
 exec .venv/bin/python -m pytest -q "$@"

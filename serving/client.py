@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidURI
+from websockets.exceptions import ConnectionClosed, InvalidHandshake, InvalidStatus, InvalidURI
 from websockets.frames import CloseCode
 from websockets.protocol import State
 from websockets.sync.client import ClientConnection, connect
 
+from xicm.serving.keys import HEADER, header_value
 from xicm.serving.wire import MAX_FRAME_BYTES, WireError, pack, unpack
 
 
@@ -16,9 +17,18 @@ class ServerError(Exception):
     """The server could not be reached, answered late, answered with an error, or sent a frame
     that cannot be decoded."""
 
-    def __init__(self, kind: str, message: str):
+    def __init__(self, kind: str, message: str, status: int | None = None):
         super().__init__(message)
-        self.kind = kind  # "server_unreachable" | "server_timeout" | "server_error" | "bad_reply"
+        # "server_unreachable" | "server_refused" | "server_timeout" | "server_error" | "bad_reply"
+        self.kind = kind
+        self.status = status  # the HTTP status of a refused handshake (401: no key, 403: wrong key)
+
+
+def _peer_text(text: bytes | str | None) -> str:
+    """A peer's explanation, safe to print: decoded leniently, one line, at most 200 characters."""
+    if isinstance(text, (bytes, bytearray)):
+        text = bytes(text[:400]).decode("utf-8", "replace")
+    return " ".join("".join(c if c.isprintable() else " " for c in (text or "")).split())[:200]
 
 
 def server_uri(host: str, port: int | None = None) -> str:
@@ -39,9 +49,10 @@ class PolicyClient:
         self._ws: ClientConnection | None = None
 
     def connect(self) -> dict:
-        """(Re)connect; returns the server's metadata. Raises ServerError("server_unreachable")."""
+        """(Re)connect; returns the server's metadata. Raises ServerError: "server_unreachable", or
+        "server_refused" (HTTP 401/403 at the handshake: no key or a wrong one; or all sessions in use)."""
         self.close()
-        headers = {"Authorization": f"Api-Key {self.api_key}"} if self.api_key else None
+        headers = {HEADER: header_value(self.api_key)} if self.api_key else None
         try:
             # no keepalive pings: each request has its own timeout_s, and while the main thread holds
             # the GIL in the simulator (a first reset on a busy machine) a pong may be read too late,
@@ -51,7 +62,18 @@ class PolicyClient:
                 additional_headers=headers, ping_interval=None,
             )
             frame = self._ws.recv(timeout=self.timeout_s)
-        except (OSError, TimeoutError, InvalidHandshake, InvalidURI, ConnectionClosed) as exc:
+        except InvalidStatus as exc:  # refused at the handshake (no key, a wrong key)
+            self._ws = None
+            status = exc.response.status_code
+            why = _peer_text(exc.response.body) or "no reason given"
+            raise ServerError("server_refused", f"the policy server at {self.uri} refused the connection with HTTP {status} ({why})", status) from exc
+        except ConnectionClosed as exc:
+            self._ws = None
+            if exc.rcvd is not None and exc.rcvd.code == CloseCode.TRY_AGAIN_LATER:  # all its sessions in use
+                why = _peer_text(exc.rcvd.reason) or "no reason given"
+                raise ServerError("server_refused", f"the policy server at {self.uri} refused the connection ({why})") from exc
+            raise ServerError("server_unreachable", f"no policy server answered at {self.uri} ({type(exc).__name__}: {exc})") from exc
+        except (OSError, TimeoutError, InvalidHandshake, InvalidURI) as exc:
             self._ws = None
             raise ServerError("server_unreachable", f"no policy server answered at {self.uri} ({type(exc).__name__}: {exc})") from exc
         try:

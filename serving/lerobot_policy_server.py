@@ -2,7 +2,7 @@
 (xicm's own cannot import lerobot: export/lerobot_env.py says why), with xicm's serving package
 on PYTHONPATH (serving/lerobot_serve.py starts it that way):
 
-    python lerobot_policy_server.py --checkpoint DIR [--host H] [--port P] [--action-space S]
+    python lerobot_policy_server.py --checkpoint DIR [--host H] [--port P] [--control-mode S] [--api-key-env VAR]
 
 A request holds LeRobot's own keys: "observation.images.<camera>" (uint8 H x W x 3),
 "observation.state" (float vector) and "task" (the instruction); the reply is
@@ -20,6 +20,8 @@ import torch
 from lerobot.configs.policies import PreTrainedConfig
 from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 
+from xicm.serving.keys import KeyNotSet, key_from_env
+from xicm.serving.limits import add_limit_arguments
 from xicm.serving.server import PolicyServer
 
 
@@ -36,7 +38,7 @@ class LeRobotChunks:
         self.config = config
         self.image_keys = list(config.image_features)
 
-    def metadata(self, action_space: str | None) -> dict:
+    def metadata(self, control_mode: str | None) -> dict:
         meta = {
             "lerobot": {
                 "policy_type": self.config.type,
@@ -46,8 +48,8 @@ class LeRobotChunks:
                 "chunk_size": int(getattr(self.config, "chunk_size", getattr(self.config, "horizon", 1))),
             }
         }
-        if action_space:
-            meta["xicm"] = {"action_space": action_space, "observes": True, "observation": "none"}
+        if control_mode:
+            meta["xicm"] = {"control_mode": control_mode, "observes": True, "observation": "none"}
         return meta
 
     def infer(self, obs: dict) -> dict:
@@ -76,14 +78,21 @@ def main() -> None:
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=8000)
     parser.add_argument("--device", default="cpu")
-    parser.add_argument("--action-space", default=None, help="announce the action space the checkpoint was trained in (xicm clients then need no policy.action_space)")
+    parser.add_argument("--control-mode", default=None, help="announce the control mode the checkpoint was trained in (xicm clients then need no policy.control_mode)")
     parser.add_argument("--max-batch", type=int, default=1, help="answer up to N concurrent requests with one forward pass")
     parser.add_argument("--batch-wait-ms", type=float, default=5.0, help="how long a batch waits for more requests")
+    add_limit_arguments(parser)
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO)
+    try:
+        api_key = key_from_env(args.api_key_env, "--api-key-env")
+    except KeyNotSet as exc:
+        parser.exit(2, f"error: {exc}\n")
     served = LeRobotChunks(args.checkpoint, args.device)
-    server = PolicyServer(served, args.host, args.port, metadata=served.metadata(args.action_space),
-                          max_batch=args.max_batch, batch_wait_ms=args.batch_wait_ms).start()
+    server = PolicyServer(served, args.host, args.port, metadata=served.metadata(args.control_mode),
+                          max_batch=args.max_batch, batch_wait_ms=args.batch_wait_ms, api_key=api_key,
+                          max_sessions=args.max_sessions, idle_timeout_s=args.idle_timeout_s,
+                          key_setting="--api-key-env").start()
     print(f"serving {served.config.type} from {args.checkpoint} on ws://{args.host}:{server.port}", flush=True)
     try:
         server.wait()

@@ -1,10 +1,12 @@
-"""Local ports for servers started by tests and benchmarks: a port that is free now, and waiting
-until a server process answers HTTP 200 on a URL (standard library only)."""
+"""Local ports for servers started by tests and benchmarks: a port that is free now, waiting
+until a server process answers HTTP 200 on a URL, and what a server process holds (standard
+library only, but for psutil in `server_counts`)."""
 
 from __future__ import annotations
 
 import socket
 import subprocess
+import threading
 import time
 import urllib.request
 from pathlib import Path
@@ -39,6 +41,23 @@ def wait_http_ok(url: str, process: subprocess.Popen, timeout_s: float, poll_s: 
     raise ServerNotReady(f"{name} did not answer {url} within {timeout_s:g} s")
 
 
+def start_server(command: list[str], ready_words: str, **popen) -> tuple[subprocess.Popen, list[str]]:
+    """Start a server process and return once a line of its output holds `ready_words`, with the
+    list its output lines keep going into (read by a thread, so its pipe never fills);
+    ServerNotReady if it exits first. Its stderr goes into the same list."""
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **popen)
+    lines: list[str] = []
+    for line in process.stdout:
+        lines.append(line)
+        if ready_words in line:
+            break
+    else:
+        process.wait()
+        raise ServerNotReady(f"{Path(command[0]).name} exited with code {process.returncode} before saying '{ready_words}'")
+    threading.Thread(target=lambda: lines.extend(process.stdout), daemon=True).start()
+    return process, lines
+
+
 def stop_process(process: subprocess.Popen, timeout_s: float = 10.0) -> None:
     """SIGTERM, then SIGKILL if `process` has not exited within `timeout_s`; reaps it."""
     if process.poll() is None:
@@ -48,3 +67,24 @@ def stop_process(process: subprocess.Popen, timeout_s: float = 10.0) -> None:
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
+
+
+def server_counts(pid: int, port: int) -> dict:
+    """What server process `pid` holds now: its child processes (all generations), the ports it and
+    they listen on, and the connections established on `port` (for leak checks before and after)."""
+    import psutil  # xicm[dev]; also a dependency of wandb
+
+    proc = psutil.Process(pid)
+    alive, conns = 0, []
+    for member in proc.children(recursive=True):
+        try:
+            conns += member.net_connections(kind="inet")
+        except psutil.NoSuchProcess:  # a child that ended while we counted (a session closing)
+            continue
+        alive += 1
+    conns += proc.net_connections(kind="inet")
+    return {
+        "children": alive,
+        "listening": sorted(c.laddr.port for c in conns if c.status == psutil.CONN_LISTEN),
+        "open_on_port": sum(1 for c in conns if c.status == psutil.CONN_ESTABLISHED and c.laddr.port == port),
+    }

@@ -7,8 +7,10 @@ import logging
 from omegaconf import DictConfig, OmegaConf
 
 from xicm.core.build import Run, build_policy, check_run
+from xicm.core.errors import ConfigError
 from xicm.core.sim_process import SimulatorProcess
 from xicm.core.plugins import get_registry
+from xicm.serving.keys import KeyNotSet, key_from_env
 from xicm.serving.served_policy import ServedPolicies
 from xicm.serving.server import PolicyServer
 
@@ -30,8 +32,17 @@ def serve_policy(cfg: DictConfig, ready=None) -> None:
             simulator.close()
             raise
 
-    served = ServedPolicies(build, control_mode=cfg.simulator.get("control_mode"), sessions=int(cfg.serve.sessions))
-    server = PolicyServer(served, host=str(cfg.serve.host), port=int(cfg.serve.port), metadata=served.metadata())
+    try:
+        api_key = key_from_env(cfg.serve.api_key_env, "serve.api_key_env")
+    except KeyNotSet as exc:
+        raise ConfigError(str(exc)) from None
+    if int(cfg.serve.sessions) > int(cfg.serve.max_sessions):
+        raise ConfigError(f"serve.sessions ({cfg.serve.sessions}) is over serve.max_sessions ({cfg.serve.max_sessions}): sessions past the cap would never be used")
+    served = ServedPolicies(build, sessions=int(cfg.serve.sessions))
+    idle = cfg.serve.idle_timeout_s
+    server = PolicyServer(served, host=str(cfg.serve.host), port=int(cfg.serve.port), metadata=served.metadata(),
+                          api_key=api_key, max_sessions=int(cfg.serve.max_sessions),
+                          idle_timeout_s=None if idle is None else float(idle), key_setting="serve.api_key_env")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     try:
         server.start()

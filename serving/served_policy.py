@@ -13,21 +13,22 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
+from functools import cached_property
 from typing import Any
 
 from xicm.core.build import Run
 from xicm.core.errors import EpisodeFailure
 from xicm.core.seeding import episode_rng
+from xicm.core.spaces import KEY_POSE
 from xicm.core.types import ControlStep
 from xicm.serving.actions import from_actions
 from xicm.serving.observation import observation_from_wire
 
 
 class ServedPolicy:
-    def __init__(self, run: Run, control_mode: str | None = None):
+    def __init__(self, run: Run):
         self.run = run
         self.policy = run.policy
-        self.control_mode = control_mode
         self.current: tuple[str, int, int] | None = None
 
     def metadata(self) -> dict[str, Any]:
@@ -37,7 +38,7 @@ class ServedPolicy:
                 "policy": self.run.policy_name,
                 "observes": observes,
                 "observation": "full" if observes else "none",
-                "action_space": getattr(self.policy, "action_space", "key_pose"),
+                "control_mode": getattr(self.policy, "control_mode", KEY_POSE),
             }
         }
 
@@ -57,11 +58,16 @@ class ServedPolicy:
             self.current = None
             return {"actions": [], "xicm/failure": {"kind": failure.kind, "message": failure.message}, "xicm/record": self._record()}
         space, chunk = from_actions(actions)
-        if space == "control":
-            space = self.control_mode
+        if space == "control":  # per-step actions are in the mode the server's simulator steps in
+            space = self.step_mode
         if not getattr(self.policy, "observes", True):
             self._follow(actions)
-        return {"actions": chunk, "xicm/action_space": space, "xicm/record": self._record()}
+        return {"actions": chunk, "xicm/control_mode": space, "xicm/record": self._record()}
+
+    @cached_property
+    def step_mode(self) -> str | None:
+        """The control mode per-step actions are in: the one the server's simulator steps in."""
+        return self.run.simulator.control_spec().control_mode
 
     def _start(self, key: tuple[str, int, int], observation) -> None:
         task, seed, episode = key
@@ -91,16 +97,18 @@ class ServedPolicy:
 
 
 class ServedPolicies:
-    """One ServedPolicy per client connection (each evaluation worker runs its own episodes),
-    built on first need by `build` and reused after its connection ends. Each session's
-    simulator lives in its own worker process (core/sim_process.py), so sessions act in parallel."""
+    """One ServedPolicy per client connection (each evaluation worker runs its own episodes).
+    `sessions` are built at start and reused after their connection ends; more are built by
+    `build` on need and closed (their simulator process ends) when their connection ends, so a
+    burst of clients leaves no process behind. Each session's simulator lives in its own worker
+    process (core/sim_process.py), so sessions act in parallel."""
 
-    def __init__(self, build: Callable[[], Run], control_mode: str | None = None, sessions: int = 1):
+    def __init__(self, build: Callable[[], Run], sessions: int = 1):
         self.build = build
-        self.control_mode = control_mode
         self.lock = threading.Lock()  # guards the session lists only
-        self.idle: list[ServedPolicy] = [ServedPolicy(build(), control_mode) for _ in range(max(1, sessions))]  # built at start
+        self.idle: list[ServedPolicy] = [ServedPolicy(build()) for _ in range(max(1, sessions))]  # built at start
         self.all = list(self.idle)
+        self.kept = len(self.all)  # sessions kept between connections
 
     def metadata(self) -> dict[str, Any]:
         return self.all[0].metadata()
@@ -108,14 +116,20 @@ class ServedPolicies:
     def open_session(self) -> ServedPolicy:
         with self.lock:
             if not self.idle:
-                self.idle.append(ServedPolicy(self.build(), self.control_mode))
+                self.idle.append(ServedPolicy(self.build()))
                 self.all.append(self.idle[-1])
             return self.idle.pop()
 
     def close_session(self, session: ServedPolicy) -> None:
         with self.lock:
             session.current = None
-            self.idle.append(session)
+            extra = len(self.all) > self.kept
+            if extra:
+                self.all.remove(session)
+            else:
+                self.idle.append(session)
+        if extra:
+            session.run.close()  # outside the lock: ending a simulator process takes a moment
 
     def close(self) -> None:
         for served in self.all:

@@ -1,5 +1,10 @@
-"""Shared fixtures. The SAPIEN simulator is expensive to start (first render compiles
-shaders), so tests that need one share a session-wide instance."""
+"""Shared fixtures; plugins for the lanes' markers (lanes.py), the file order (file_order.py) and
+the strict-skip rule (strict_skips.py).
+
+Lanes (markers in pyproject.toml): `pytest -m "not slow"` is the developer's fast lane;
+`bash scripts/test.sh` (CI) runs everything. XICM_TEST_ORDER=reverse (or --reverse-files) runs
+the files in reverse order, each file's tests in their own order: no test may depend on another
+file's having run first."""
 
 import os
 
@@ -9,12 +14,29 @@ os.environ.setdefault("WANDB_MODE", "disabled")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
 
+pytest_plugins = ["lanes", "file_order", "strict_skips", "pytester"]
+
 
 @pytest.fixture(scope="session")
 def sim():
+    """One rendering SAPIEN simulator for the session (a process's first render compiles shaders,
+    ~7 s, and pictures of a new scene cost more): for tests that render or do not depend on what
+    the physics did before. Physics-exact tests take `physics_sim`."""
     from xicm.core.plugins import get_registry
 
     simulator = get_registry().create_simulator({"name": "sapien", "image_size": 128})
+    yield simulator
+    simulator.close()
+
+
+@pytest.fixture
+def physics_sim():
+    """A fresh physics-only SAPIEN simulator (render=False, ~0.02 s to build) for each test whose
+    outcome is exact physics: a PhysX scene that has loaded and removed other tasks' objects
+    steps differently, so a shared one made such tests depend on which tests ran before."""
+    from xicm.core.plugins import get_registry
+
+    simulator = get_registry().create_simulator({"name": "sapien", "render": False})
     yield simulator
     simulator.close()
 
@@ -31,3 +53,13 @@ def smoke_pool(sim, tmp_path_factory):
     counts = collect(sim, detector, ["open_drawer", "push_buttons"], 2, seed=10_000, out_path=path, progress=False)
     assert all(ok == 2 for ok, _ in counts.values()), counts
     return path, load_pool(path)
+
+
+@pytest.fixture(scope="session")
+def tiny_gemma_dir(tmp_path_factory):
+    """One tiny random Gemma 3 folder (tiny_gemma.py) for every LLM test module of the session."""
+    pytest.importorskip("torch")
+    pytest.importorskip("transformers")
+    from tiny_gemma import write_tiny_gemma
+
+    return write_tiny_gemma(tmp_path_factory.mktemp("tiny-gemma") / "tiny-gemma3")

@@ -1,9 +1,12 @@
 """Run inside the openpi-client environment (not xicm's): connect to a policy server with
 openpi's own WebsocketClientPolicy, send one observation, and save what came back.
 
-    python openpi_client_probe.py HOST PORT OUT.npz
+    python openpi_client_probe.py HOST PORT OUT.npz [API_KEY_ENV]
+
+With API_KEY_ENV, the key in that environment variable goes to WebsocketClientPolicy(api_key=...).
 """
 
+import os
 import sys
 
 import numpy as np
@@ -11,7 +14,8 @@ from openpi_client import msgpack_numpy
 from openpi_client.websocket_client_policy import WebsocketClientPolicy
 
 host, port, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-client = WebsocketClientPolicy(host=host, port=port)
+api_key = os.environ[sys.argv[4]] if len(sys.argv) > 4 else None
+client = WebsocketClientPolicy(host=host, port=port, api_key=api_key)
 obs = {
     "observation/image": np.arange(4 * 4 * 3, dtype=np.uint8).reshape(4, 4, 3),
     "observation/state": np.linspace(0, 1, 8, dtype=np.float32),

@@ -1,5 +1,5 @@
 """Helpers of the SAPIEN task tests: drive a task's own scripted demonstrator, or a changed copy
-of it, in the session-wide simulator (`sim` fixture, conftest.py)."""
+of it, in the test's simulator (`sim` fixture, conftest.py)."""
 
 from __future__ import annotations
 

@@ -194,6 +194,25 @@ def test_partial_replies_run_the_valid_actions_then_end_at_the_invalid_one(sim, 
     assert r.error_message.startswith("after the valid actions of reply 1: action [140, 50, 40, 0, 36, 36, 1] is out of range")
 
 
+def test_parse_fallback_reads_replies_as_xicm_does(sim, smoke_pool):
+    """X-ICM's reading: the valid actions run, the off-grid one is refused when executed; a reply
+    with no action moves to the default pose and the LLM is asked again."""
+    _, pool = smoke_pool
+    r = _agent(sim, pool, ScriptedReply(HOVER_THEN_OUT), parse_fallback=True).run_episode("close_microwave", 0, 0)
+    assert (r.steps, r.error_kind, len(r.responses)) == (3, "unreachable", 1)
+    # the default pose is RLBench's start pose: out of our own robot's reach, within RLBench's
+    r = _agent(sim, pool, ScriptedReply("I would open it."), parse_fallback=True).run_episode("close_microwave", 0, 0)
+    assert (r.steps, r.error_kind, r.extra["parse_fallbacks"]) == (1, "unreachable", ["reply 1: no group of 7 integers: one default action"])
+    rlbench = get_registry().create_simulator({"name": "sapien", "robot": "rlbench", "cameras": ["front"]})
+    try:
+        chatty = _agent(rlbench, pool, ScriptedReply("I would open it."), parse_fallback=True, max_steps=3)
+        r = chatty.run_episode("close_microwave", 0, 0)
+    finally:
+        rlbench.close()
+    assert (r.steps, r.error_kind, len(r.responses)) == (3, "max_steps", 3)
+    assert r.extra["parse_fallbacks"] == [f"reply {i}: no group of 7 integers: one default action" for i in (1, 2, 3)]
+
+
 def test_by_default_one_invalid_action_rejects_the_whole_reply(sim, smoke_pool):
     _, pool = smoke_pool
     r = _agent(sim, pool, ScriptedReply(HOVER_THEN_OUT)).run_episode("close_microwave", 0, 0)

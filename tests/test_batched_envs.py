@@ -77,6 +77,7 @@ def test_envs_that_cannot_work_stop_at_start(overrides, words):
 
 
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_two_environments_give_the_episodes_of_one(sim):
     cfg = compose_cfg("policy=oracle", "simulator.image_size=32", "benchmark.tasks=[open_drawer,push_buttons]")
     cfg.run_name = cfg.tracking.group = "test"  # their ${hydra:...} resolves only inside a Hydra app

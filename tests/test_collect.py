@@ -224,6 +224,7 @@ def test_collect_with_the_sapien_simulator(sapien_pool):
 
 
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_parallel_collection_killed_then_resumed(tmp_path):
     """xicm-collect over 2 worker processes: kill -9 mid-run, no orphan workers, nothing
     half-written, and the re-run completes the pool as an uninterrupted run would."""

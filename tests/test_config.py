@@ -1,12 +1,11 @@
 import os
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
+from cli_in_process import run_main
 from xicm.core import build
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import UnknownPluginError, get_registry
@@ -64,32 +63,36 @@ def test_missing_pool_says_what_to_run_before_anything_is_built(tmp_path):
         build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
-def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-c", "import sys; from xicm.core.cli import eval_main; sys.argv[0]='xicm-eval'; eval_main()", *args], capture_output=True, text=True, cwd=cwd)
+@pytest.fixture
+def cli(monkeypatch, capsys):
+    """xicm-eval with these arguments, in this process (cli_in_process.py)."""
+    from xicm.core.cli import eval_main
+
+    return lambda *args, cwd: run_main(eval_main, "xicm-eval", *args, cwd=cwd, monkeypatch=monkeypatch, capsys=capsys)
 
 
-def test_cli_bad_group_option_names_the_options(tmp_path):
-    out = _cli("llm=gpt17", cwd=tmp_path)
+def test_cli_bad_group_option_names_the_options(cli, tmp_path):
+    out = cli("llm=gpt17", cwd=tmp_path)
     assert out.returncode != 0
     assert "Could not find 'llm/gpt17'" in out.stderr and "nearest_demo" in out.stderr
 
 
-def test_cli_unknown_plugin_is_one_clear_sentence(tmp_path):
-    out = _cli("detector.name=xray", cwd=tmp_path)
+def test_cli_unknown_plugin_is_one_clear_sentence(cli, tmp_path):
+    out = cli("detector.name=xray", cwd=tmp_path)
     assert out.returncode == 2
     assert out.stderr.strip().splitlines()[-1] == (
         "xicm: error: unknown detector 'xray'; available: " + ", ".join(get_registry().names("detector"))
     )
 
 
-def test_cli_missing_pool_is_one_clear_sentence(tmp_path):
-    out = _cli(f"paths.data={tmp_path}/nothing", cwd=tmp_path)
+def test_cli_missing_pool_is_one_clear_sentence(cli, tmp_path):
+    out = cli(f"paths.data={tmp_path}/nothing", cwd=tmp_path)
     assert out.returncode == 2
     assert "no demonstration pool at" in out.stderr and "xicm-collect" in out.stderr
 
 
-def test_help_is_fast_and_lists_groups(tmp_path):
-    out = _cli("--help", cwd=tmp_path)
+def test_help_is_fast_and_lists_groups(cli, tmp_path):
+    out = cli("--help", cwd=tmp_path)
     assert out.returncode == 0
     assert "llm: " in out.stdout and "retriever: " in out.stdout
 
@@ -101,8 +104,8 @@ def test_config_resolves_without_hydra_runtime_except_run_name():
     assert OmegaConf.create(container).pool_path.endswith("pools/smoke.h5")
 
 
-def test_cli_malformed_override_is_reported(tmp_path):
-    out = _cli("seeds=[0,", cwd=tmp_path)
+def test_cli_malformed_override_is_reported(cli, tmp_path):
+    out = cli("seeds=[0,", cwd=tmp_path)
     assert out.returncode != 0
     assert "no viable alternative at input '[0,'" in out.stderr and "Traceback" not in out.stderr
 
@@ -122,12 +125,15 @@ def test_long_sweep_folder_names_are_cut_and_hashed():
     assert short_name("policy.k=6", FOLDER_NAME_LIMIT) == "policy.k=6"
 
 
+SINGLE_RUN_EXPERIMENTS = {"paper_protocol", "paper_pool"}  # the protocol the paper presets share; the paper's pool
+
+
 @pytest.mark.parametrize("name", sorted(p.stem for p in (CONF / "experiment").glob("*.yaml")))
 def test_every_experiment_composes_and_sweeps_what_exists(name):
     with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
         cfg = compose("config", overrides=[f"+experiment={name}"], return_hydra_config=True)
-    params = dict(cfg.hydra.sweeper.params)
-    assert params, f"experiment {name} sweeps nothing"
+    params = dict(cfg.hydra.sweeper.params or {})
+    assert params or name in SINGLE_RUN_EXPERIMENTS, f"experiment {name} sweeps nothing"
     for key, values in params.items():
         if key in GROUPS:  # a config group: every swept option must be a file of the group
             options = {p.stem for p in (CONF / key).glob("*.yaml")}

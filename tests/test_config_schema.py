@@ -1,17 +1,16 @@
 """Typed config schemas: every family of bad value stops at start with one sentence naming the
-key, what is allowed and the value (through the real CLI for one value per family)."""
+key, what is allowed and the value (through the CLI's main, in this process, for one value per family)."""
 
 import dataclasses
 import inspect
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import MISSING
 
+from cli_in_process import run_main
 from xicm.core import build
 from xicm.core.config_schema import XicmConfig
 from xicm.core.errors import ConfigError
@@ -33,9 +32,16 @@ def _compose(overrides=()):
         return compose("config", overrides=list(overrides))
 
 
-def _cli(command, *args, cwd):
-    code = f"import sys; from xicm.core.cli import {command}_main; sys.argv[0] = 'xicm-{command}'; {command}_main()"
-    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=cwd)
+@pytest.fixture
+def cli(monkeypatch, capsys):
+    """xicm-<command> with these arguments, in this process (cli_in_process.py)."""
+    from xicm.core import cli as commands
+
+    def run(command, *args, cwd):
+        main = getattr(commands, f"{command}_main")
+        return run_main(main, f"xicm-{command}", *args, cwd=cwd, monkeypatch=monkeypatch, capsys=capsys)
+
+    return run
 
 
 def _one_sentence(out) -> str:
@@ -61,14 +67,14 @@ def _one_sentence(out) -> str:
         (["episode=3"], f"unknown key episode (did you mean episodes?); the config has: {', '.join(TOP_KEYS)}"),
     ],
 )
-def test_xicm_eval_stops_at_start_with_one_sentence(tmp_path, args, sentence):
-    out = _cli("eval", f"paths.data={tmp_path}", *args, cwd=tmp_path)
+def test_xicm_eval_stops_at_start_with_one_sentence(cli, tmp_path, args, sentence):
+    out = cli("eval", f"paths.data={tmp_path}", *args, cwd=tmp_path)
     assert _one_sentence(out) == f"xicm: error: {sentence}"
     assert not list(tmp_path.rglob("run.json"))  # nothing was run
 
 
-def test_xicm_collect_stops_at_start_with_one_sentence(tmp_path):
-    out = _cli("collect", f"paths.data={tmp_path}", "collect.workers=many", cwd=tmp_path)
+def test_xicm_collect_stops_at_start_with_one_sentence(cli, tmp_path):
+    out = cli("collect", f"paths.data={tmp_path}", "collect.workers=many", cwd=tmp_path)
     assert _one_sentence(out) == "xicm: error: collect.workers must be 'auto' or an integer >= 1, not 'many'"
 
 
@@ -266,6 +272,24 @@ def test_every_experiment_passes_every_schema(name):
             assert get_registry().check_options(group, options).name == options["name"]
 
 
+def test_the_paper_presets_select_demos_as_xicm_does():
+    """Image-only features ranked by the raw dot product (docs/AGNOSTOS.md, the selection row)."""
+    for name in ("paper_table2", "ablation_k", "ablation_llm"):
+        cfg = _compose([f"+experiment={name}"])
+        assert (cfg.retriever.name, cfg.retriever.score) == ("dynamics", "dot"), name
+        assert (cfg.encoder.visual, cfg.encoder.text_weight, cfg.encoder.normalise) == ("final", 0.0, False), name
+    ours = _compose(["retriever=dynamics"])
+    assert (ours.retriever.score, ours.encoder.visual, ours.encoder.normalise) == ("cosine", "change", True)
+
+
+def test_the_paper_pool_is_collected_with_the_paper_presets_simulator():
+    pool, paper = _compose(["+experiment=paper_pool"]), _compose(["+experiment=paper_table2"])
+    assert (pool.benchmark.name, pool.collect.demos_per_task, pool.pool_path) == ("seen", 200, paper.pool_path)
+    assert pool.pool_path.endswith("pools/paper.h5") and pool.simulator == paper.simulator
+    assert (paper.simulator.robot, paper.simulator.gripper_after_success, paper.policy.parse_fallback) == ("rlbench", True, True)
+    assert _compose([]).simulator.robot == "ours"
+
+
 def _constructor(factory):
     """What a factory's options become: the class's __init__ for a class, else the function."""
     return factory.__init__ if inspect.isclass(factory) else factory
@@ -339,7 +363,8 @@ def test_a_bad_training_value_stops_before_the_training(override, sentence):
     assert str(err.value) == sentence
 
 
-def test_xicm_train_dynamics_stops_at_start_with_one_sentence(tmp_path):
-    code = "import sys; from xicm.plugins.dynamics.cli import main; sys.argv[0] = 'xicm-train-dynamics'; main()"
-    out = subprocess.run([sys.executable, "-c", code, f"paths.data={tmp_path}", "train.steps=abc"], capture_output=True, text=True, cwd=tmp_path)
+def test_xicm_train_dynamics_stops_at_start_with_one_sentence(tmp_path, monkeypatch, capsys):
+    from xicm.plugins.dynamics.cli import main
+
+    out = run_main(main, "xicm-train-dynamics", f"paths.data={tmp_path}", "train.steps=abc", cwd=tmp_path, monkeypatch=monkeypatch, capsys=capsys)
     assert _one_sentence(out) == "xicm: error: train.steps must be an integer >= 1, not 'abc'"

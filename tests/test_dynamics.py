@@ -158,6 +158,22 @@ def test_features_are_deterministic_and_depend_on_seed_and_text(trained):
     assert not np.allclose(one_pass[0], one_pass[1])
 
 
+def test_the_xicm_feature_is_the_raw_predicted_final_frame_without_text(trained):
+    out, _ = trained
+    img = frame(TASKS["slide_left"][1], 10, 4)
+    items = [(img, TASKS["slide_left"][0]), (img, "push the red block forward")]
+    raw = DynamicsEncoder(str(out), steps=2, visual="final", text_weight=0.0, normalise=False).encode(items)
+    unit = DynamicsEncoder(str(out), steps=2, visual="final", text_weight=0.0).encode(items)
+    assert raw.shape == (2, 3 * 16 * 16) and not np.allclose(np.linalg.norm(raw, axis=1), 1.0)
+    # the normalised feature's visual part is the raw one scaled to unit length, its text part weighs 0
+    assert np.allclose(unit[:, : raw.shape[1]], raw / np.linalg.norm(raw, axis=1, keepdims=True), atol=1e-6)
+    assert np.allclose(unit[:, raw.shape[1] :], 0)
+    with pytest.raises(ConfigError, match="text_weight must be 0"):
+        DynamicsEncoder(str(out), normalise=False)
+    keys = {DynamicsEncoder(str(out), text_weight=0.0, normalise=n).cache_key() for n in (True, False)}
+    assert len(keys) == 2
+
+
 def test_the_feature_cache_is_reused_and_invalidated_when_the_checkpoint_changes(pool, tmp_path):
     out = tmp_path / "model"
     run_training(_cfg(pool, out, "train.steps=2", "train.checkpoint_every=2", "train.heldout_every=0"))
@@ -225,6 +241,8 @@ def test_a_transformers_text_encoder_from_a_local_folder(tmp_path):
         text_encoder({"kind": "clip-magic"})
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_the_leave_one_task_out_benchmark_reports_sources_and_agreement(trained, pool, tmp_path):
     import subprocess
     import sys
@@ -234,10 +252,10 @@ def test_the_leave_one_task_out_benchmark_reports_sources_and_agreement(trained,
     script = Path(__file__).resolve().parents[1] / "benchmarks" / "retrieval_loto.py"
     report = tmp_path / "loto.json"
     args = ["--pool", str(pool), "--checkpoint", str(out), "--k", "3", "--steps", "2", "--heldout-every", "6"]
-    args += ["--retrievers", "dynamics,dynamics_change,random", "--cache-dir", str(tmp_path / "cache"), "--json", str(report)]
+    args += ["--retrievers", "dynamics,dynamics_change,dynamics_xicm,random", "--cache-dir", str(tmp_path / "cache"), "--json", str(report)]
     subprocess.run([sys.executable, str(script), *args], check=True, capture_output=True, timeout=300)
     results = json.loads(report.read_text())["results"]
-    for name in ("dynamics", "dynamics_change", "random"):
+    for name in ("dynamics", "dynamics_change", "dynamics_xicm", "random"):
         # own task excluded: every retrieved demo comes from the other task, whose square slides the other way
         assert set(results[name]["sources"]["slide_left"]) == {"slide_right"}
         assert results[name]["gripper_pattern_match_percent"] == 100.0  # one key action, gripper open, in both tasks

@@ -60,9 +60,7 @@ def recording(run):
 
 
 def test_a_chunk_of_control_steps_replays_a_recorded_demo_to_success(run, recording):
-    from xicm.plugins.simulators.sapien.control_modes import actions
-
-    policy = ChunkReplay(actions(recording, "ee_delta"), chunk=8)
+    policy = ChunkReplay(recording.actions["ee_delta"], chunk=8)
     result = run_episode(PhysicsOnly(run.simulator), policy, TASK, 0, 0, max_steps=25)
     assert (result.success, result.error_kind) == (True, None)
     assert 0.6 * recording.steps < result.steps <= recording.steps  # control steps, not key actions
@@ -71,9 +69,7 @@ def test_a_chunk_of_control_steps_replays_a_recorded_demo_to_success(run, record
 
 
 def test_control_steps_run_out_at_max_control_steps_not_max_steps(run, recording):
-    from xicm.plugins.simulators.sapien.control_modes import actions
-
-    policy = ChunkReplay(actions(recording, "ee_delta"), chunk=3)
+    policy = ChunkReplay(recording.actions["ee_delta"], chunk=3)
     result = run_episode(PhysicsOnly(run.simulator), policy, TASK, 0, 0, max_steps=2, max_control_steps=7)
     assert (result.success, result.steps, result.error_kind) == (False, 7, "max_control_steps")
     assert result.error_message == "no success within 7 control steps"

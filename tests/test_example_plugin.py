@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from plugin_install import install_beside
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.pip, pytest.mark.subprocess]
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "xicm-object-overlap"
 BIN = Path(sys.executable).parent

@@ -11,6 +11,7 @@ import pytest
 from hydra import compose, initialize_config_module
 
 from xicm.core.errors import ConfigError
+from xicm.core.spaces import KEY_POSE_NAMES
 from xicm.core.types import KeyAction
 from xicm.export import features as feats
 from xicm.export.job import check_export, export_tasks
@@ -45,13 +46,21 @@ def test_default_task_list_is_the_seen_benchmark():
     assert len(tasks) == 18 and tasks[0] == "close_jar" and "stack_cups" in tasks
 
 
-def test_features_match_the_simulators_action_spaces():
-    from xicm.plugins.simulators.sapien.control_modes import ACTION_DIMS
+def _spec(sim, control_mode):
+    import dataclasses
 
-    assert {k: len(v) for k, v in feats.ACTION_NAMES.items()} == ACTION_DIMS
-    f = feats.features({"front": (64, 64), "wrist": (96, 128)}, "joint_pos", use_videos=True)
+    return dataclasses.replace(sim.control_spec(), control_mode=control_mode)
+
+
+def test_features_are_the_simulators_control_spec(sim):
+    f = feats.features({"front": (64, 64), "wrist": (96, 128)}, _spec(sim, "joint_pos"), use_videos=True)
     assert f["observation.images.wrist"] == {"dtype": "video", "shape": [96, 128, 3], "names": ["height", "width", "channels"]}
-    assert f["action"]["names"] == feats.ACTION_NAMES["joint_pos"] and f["observation.state"]["shape"] == [16]
+    joints = [f"joint_{i}" for i in range(1, 8)]
+    assert f["action"]["names"] == [*joints, "gripper"] and f["observation.state"]["shape"] == [16]
+    assert f["observation.state"]["names"] == [*joints, "gripper_width", "tcp_x", "tcp_y", "tcp_z", "tcp_qw", "tcp_qx", "tcp_qy",
+                                               "tcp_qz", "gripper_open"]
+    assert f["action.ee_delta"]["names"] == ["dx", "dy", "dz", "droll", "dpitch", "dyaw", "gripper"]
+    assert [k for k in f if k.startswith("action.")] == [f"action.{m}" for m in ("ee_delta", "ee_pose", "joint_pos", "joint_delta")]
 
 
 def test_key_action_columns_name_the_key_action_each_step_works_towards():
@@ -67,12 +76,37 @@ def test_key_action_columns_name_the_key_action_each_step_works_towards():
     assert feats.key_frame_rows(cols["key_action.index"].ravel()) == [0, 3]
 
 
-def test_key_frame_features_carry_the_key_pose_and_no_per_step_columns():
-    f = feats.features({"front": (64, 64)}, "joint_pos", use_videos=False, frames="key")
-    assert f["action"]["names"] == feats.KEY_POSE_NAMES and f["key_action.pose"]["shape"] == [8]
+def test_key_frame_features_carry_the_key_pose_and_no_per_step_columns(sim):
+    f = feats.features({"front": (64, 64)}, _spec(sim, "joint_pos"), use_videos=False, frames="key")
+    assert f["action"]["names"] == ["x", "y", "z", "qw", "qx", "qy", "qz", "gripper"] and f["key_action.pose"]["shape"] == [8]
     assert not [k for k in f if k.startswith("action.")] and "key_action.ends_here" not in f
     assert feats.staged_column("action", "joint_pos", "key") == "key_action.pose"
     assert feats.staged_column("action", "joint_pos") == "action.joint_pos"
+
+
+def test_provenance_columns_round_trip_and_rebuild_the_envs_arguments():
+    from xicm.export.provenance import Provenance, column_names
+
+    options = {"cameras": ["front"], "image_size": 64, "control_mode": "joint_pos", "render": True,
+               "sample_variations": False, "scenes": "rlbench"}
+    scene = Provenance("close_jar", 10_000, 3, 1, "sapien", options)
+    row = {"episode_index": 0, "data/chunk_index": 0, **scene.columns()}  # beside lerobot's own columns
+    assert sorted(scene.columns()) == sorted(column_names())
+    assert all(k.startswith("scene/") for k in scene.columns()) and Provenance.from_row(row) == scene
+    assert scene.env_kwargs(obs_mode="state") == {
+        "obs_mode": "state", "simulator": "sapien", "control_mode": "joint_pos", "cameras": ["front"], "image_size": 64,
+        "variations": "zero", "simulator_options": {"scenes": "rlbench"}}
+    assert scene.reset_kwargs() == {"seed": 10_000, "options": {"episode": 3}}
+    with pytest.raises(ValueError, match=r"^the episode metadata has no scene/task, scene/seed, .*scene/simulator_options: "):
+        Provenance.from_row({"episode_index": 0})
+    assert Provenance.from_row({**row, "scene/seed": np.int64(10_000)}) == scene  # numpy's integers (pandas rows)
+    for column, value, words in [("scene/seed", "10000", "scene/seed must be an integer, not '10000'"),
+                                 ("scene/variation", True, "scene/variation must be an integer, not 'True'"),
+                                 ("scene/simulator_options", "{not json", "scene/simulator_options must be a JSON object, not '{not json'"),
+                                 ("scene/simulator_options", "[1]", "scene/simulator_options must be a JSON object, not '[1]'")]:
+        with pytest.raises(ValueError) as err:
+            Provenance.from_row({**row, column: value})
+        assert str(err.value) == f"the episode metadata's {words}", err.value
 
 
 def test_cli_bad_input_prints_one_sentence_and_no_traceback(tmp_path):
@@ -129,8 +163,9 @@ def exported(tmp_path_factory):
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
-def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported):
+def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported, sim):
     import json
 
     cfg, out_dir, report, data, staged = exported
@@ -141,14 +176,14 @@ def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported):
     assert int(data["num_episodes"]) == 4 and int(data["num_frames"]) == sum(steps)
     assert data["tasks"].tolist() == [str(np.load(p)["instruction"]) for p in staged]
     features = json.loads(str(data["features"]))
-    expected = feats.features({"front": (64, 64), "wrist": (64, 64)}, "ee_delta", use_videos=True)
+    expected = feats.features({"front": (64, 64), "wrist": (64, 64)}, _spec(sim, "ee_delta"), use_videos=True)
     assert {k: features[k]["shape"] for k in expected} == {k: v["shape"] for k, v in expected.items()}
     assert (out_dir / "meta" / "info.json").exists() and list((out_dir / "videos").rglob("*.mp4"))
     first = 0
     for n, path in enumerate(staged):
         arrays = np.load(path)
         rows = slice(first, first + steps[n])
-        for space in feats.ACTION_SPACES:
+        for space in sim.control_spec().mode_names(per_step=True):
             np.testing.assert_allclose(data[f"column.action.{space}"][rows], arrays[f"action.{space}"], atol=1e-6)
         np.testing.assert_array_equal(data["column.action"][rows], data["column.action.ee_delta"][rows])
         np.testing.assert_array_equal(data["column.key_action.ints"][rows], arrays["key_action.ints"])
@@ -159,24 +194,27 @@ def test_export_loads_with_lerobot_with_every_frame_task_and_column(exported):
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
-def test_loaded_actions_replay_to_success_in_the_gymnasium_env_in_every_action_space(exported):
+def test_loaded_actions_replay_to_success_in_the_gymnasium_env_in_every_action_space(exported, sim):
     import gymnasium
 
+    from xicm.export.provenance import from_dump
     from xicm.vla.registration import env_id, register_envs
 
     register_envs()
-    cfg, _, _, data, staged = exported
+    _, _, _, data, staged = exported
     episode_of = data["column.episode_index"].reshape(-1)
+    scenes = from_dump(data)  # each episode's (task, seed, episode), read from the dataset itself
     results = []
-    for space in feats.ACTION_SPACES:
+    for space in sim.control_spec().mode_names(per_step=True):
         for task in TASKS:
             env = gymnasium.make(env_id(task), obs_mode="state", control_mode=space)
             try:
                 for n, path in enumerate(staged):
-                    if path.parent.parent.name != task:
+                    if scenes[n].task != task:
                         continue
-                    _, info = env.reset(seed=int(cfg.export.seed), options={"episode": int(path.stem[1:])})
+                    _, info = env.reset(**scenes[n].reset_kwargs())
                     assert info["instruction"] == data["tasks"][n]  # the dataset's task text is this scene's
                     for action in data[f"column.action.{space}"][episode_of == n]:
                         _, _, terminated, truncated, info = env.step(action)
@@ -190,6 +228,48 @@ def test_loaded_actions_replay_to_success_in_the_gymnasium_env_in_every_action_s
 
 
 @pytest.mark.slow
+@pytest.mark.venv
+@needs_lerobot
+def test_each_episode_names_its_scene_and_the_env_rebuilt_from_it_alone_replays_it(exported):
+    """The dataset names each episode's scene (meta/episodes' scene/* columns, read back by
+    lerobot's LeRobotDataset): the Gymnasium env built and reset from those columns alone shows
+    the episode's first frame and state, and the episode's `action` column solves it."""
+    import gymnasium
+
+    from xicm.export.provenance import from_dump
+    from xicm.export.staging import staged_scene
+    from xicm.vla.registration import env_id, register_envs
+
+    register_envs()
+    _, _, _, data, staged = exported
+    scenes = from_dump(data)
+    assert [(s.task, s.seed, s.episode, s.variation) for s in scenes] == [staged_scene(p) for p in staged]
+    assert {(s.simulator, s.simulator_options["control_mode"], s.simulator_options["image_size"]) for s in scenes} == {
+        ("sapien", "ee_delta", 64)}
+    episode_of = data["column.episode_index"].reshape(-1)
+    for n, scene in enumerate(scenes):
+        env = gymnasium.make(env_id(scene.task), **scene.env_kwargs(obs_mode="rgb"))
+        try:
+            obs, info = env.reset(**scene.reset_kwargs())
+            assert (info["instruction"], info["variation"]) == (data["tasks"][n], scene.variation)
+            rows = episode_of == n
+            state = np.concatenate([obs["state"][f.name] for f in env.unwrapped.control_spec.state])
+            np.testing.assert_allclose(state, data["column.observation.state"][rows][0], atol=1e-5)
+            for camera in scene.simulator_options["cameras"]:  # the decoded first video frame, up to compression
+                diff = np.abs(obs["rgb"][camera].astype(int) - data[f"images.{camera}"][n, 0].astype(int))
+                assert diff.mean() < 8, (scene, camera, diff.mean())
+            for action in data["column.action"][rows]:
+                _, _, terminated, truncated, info = env.step(action)
+                assert "error_kind" not in info, (scene, info)
+                if terminated or truncated:
+                    break
+            assert terminated and info["success"], scene
+        finally:
+            env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
 def test_a_partial_export_resumes_recording_only_what_is_missing(exported, monkeypatch, tmp_path):
     import shutil
@@ -216,6 +296,7 @@ def test_a_partial_export_resumes_recording_only_what_is_missing(exported, monke
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
 def test_key_frames_of_the_same_staging_load_with_lerobot_and_replay_to_success(exported, monkeypatch, tmp_path):
     """export.frames=key writes the staged demos again, without recording anything, as one frame
@@ -226,6 +307,7 @@ def test_key_frames_of_the_same_staging_load_with_lerobot_and_replay_to_success(
     from xicm.export import record
     from xicm.export.dataset_writer import read_dataset
     from xicm.export.job import run_export
+    from xicm.export.provenance import from_dump
 
     cfg, out_dir, _, _, staged = exported
     work = tmp_path / "agnostos_seen_key"
@@ -235,8 +317,9 @@ def test_key_frames_of_the_same_staging_load_with_lerobot_and_replay_to_success(
     loaded = tmp_path / "loaded.npz"
     read_dataset(work, cfg.export.repo_id, loaded, cfg.paths.cache)
     data = dict(np.load(loaded))
+    assert from_dump(data) == from_dump(exported[3])  # the key-frame episodes name the same scenes
     keys = [int(np.load(p)["key_action.index"].max()) + 1 for p in staged]
-    assert int(data["num_frames"]) == sum(keys) and json.loads(str(data["features"]))["action"]["names"] == feats.KEY_POSE_NAMES
+    assert int(data["num_frames"]) == sum(keys) and json.loads(str(data["features"]))["action"]["names"] == list(KEY_POSE_NAMES)
     episode_of = data["column.episode_index"].reshape(-1)
     simulator = get_registry().create_simulator({"name": "sapien", "cameras": ["front"]})
     try:
@@ -252,6 +335,7 @@ def test_key_frames_of_the_same_staging_load_with_lerobot_and_replay_to_success(
 
 
 @pytest.mark.slow
+@pytest.mark.venv
 @needs_lerobot
 def test_lerobot_trains_on_the_export_and_writes_a_servable_checkpoint(exported, tmp_path):
     """xicm-train-lerobot runs lerobot's own training script on the exported dataset (2 steps

@@ -57,8 +57,6 @@ class _no_checker_warnings:
 
 
 def test_a_replayed_recording_succeeds_terminates_and_reports_the_instruction():
-    from xicm.plugins.simulators.sapien.control_modes import actions
-
     env = gymnasium.make("xicm/OpenDrawer-v0", obs_mode="state", control_mode="joint_delta")
     try:
         obs, info = env.reset(seed=10_000, options={"episode": 0})
@@ -67,7 +65,7 @@ def test_a_replayed_recording_succeeds_terminates_and_reports_the_instruction():
         sim = env.unwrapped.sim
         rec = sim.record_scripted()
         env.reset(seed=10_000, options={"episode": 0})
-        for t, action in enumerate(actions(rec, "joint_delta")):
+        for t, action in enumerate(rec.actions["joint_delta"]):
             obs, reward, terminated, truncated, info = env.step(action.astype(np.float32))
             if terminated or truncated:
                 break
@@ -137,6 +135,8 @@ print(info["instruction"], "|", h.hexdigest())
 """
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_reset_gives_the_same_observation_bytes_in_two_processes():
     runs = [subprocess.run([sys.executable, "-c", RESET_DIGEST], capture_output=True, text=True, timeout=300) for _ in range(2)]
     outputs = [r.stdout.strip().splitlines()[-1] for r in runs]
@@ -144,6 +144,8 @@ def test_reset_gives_the_same_observation_bytes_in_two_processes():
     assert outputs[0] == outputs[1] and len(outputs[0].split("|")[1].strip()) == 64
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
 def test_async_vector_env_steps_two_different_tasks_in_worker_processes():
     from gymnasium.vector import AsyncVectorEnv
 
@@ -161,3 +163,17 @@ def test_async_vector_env_steps_two_different_tasks_in_worker_processes():
         assert np.all(obs["state"]["tcp_pose"][:, 2] < 0.5 - 0.03)  # both arms went down from z = 0.5
     finally:
         envs.close()
+
+
+def test_the_spaces_are_the_simulators_control_spec():
+    env = gymnasium.make("xicm/OpenDrawer-v0", obs_mode="state", control_mode="ee_pose")
+    try:
+        spec = env.unwrapped.sim.control_spec()
+        low, high = spec.mode("ee_pose").bounds()
+        np.testing.assert_array_equal(env.action_space.low, low)
+        np.testing.assert_array_equal(env.action_space.high, high)
+        state = env.observation_space["state"]
+        assert set(state.spaces) == {f.name for f in spec.state}  # gymnasium sorts a Dict's keys
+        assert [state[f.name].shape for f in spec.state] == [(f.width,) for f in spec.state]
+    finally:
+        env.close()

@@ -29,7 +29,24 @@ def test_launcher_configs_compose(launcher, target):
     assert cfg.hydra.launcher._target_.endswith(target)
 
 
+
+def test_the_slurm_overrides_of_docs_cluster_compose():
+    """The command in docs/CLUSTER.md "SLURM (submitit)" (SLURM itself cannot run here)."""
+    pytest.importorskip("hydra_plugins.hydra_submitit_launcher")
+    overrides = ["hydra/launcher=submitit_slurm", "hydra.launcher.partition=cpu", "hydra.launcher.timeout_min=600",
+                 "hydra.launcher.cpus_per_task=4", "hydra.launcher.mem_gb=16", "hydra.launcher.array_parallelism=32",
+                 'hydra.launcher.setup=["source /abs/xicm/.venv/bin/activate","export XICM_DATA=/shared/data"]',
+                 "hydra.launcher.max_num_timeout=3", "+hydra.launcher.additional_parameters={mail-type:END}",
+                 "benchmark=agnostos"]
+    doc = (Path(__file__).parents[1] / "docs" / "CLUSTER.md").read_text()
+    assert all(o.split("=")[0] in doc for o in overrides)
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        launcher = compose("config", overrides=overrides, return_hydra_config=True).hydra.launcher
+    assert launcher.setup == ["source /abs/xicm/.venv/bin/activate", "export XICM_DATA=/shared/data"]
+    assert launcher.additional_parameters == {"mail-type": "END"} and launcher.submitit_folder == "multirun/agnostos/.submitit/%j"
+
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_joblib_multirun_runs_two_jobs_and_the_report_reads_them(tmp_path):
     pytest.importorskip("hydra_plugins.hydra_joblib_launcher")
     # A long extra key makes each job's folder name longer than xicm_dirname's limit: the names

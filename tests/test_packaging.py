@@ -1,6 +1,8 @@
 import tomllib
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -33,6 +35,8 @@ def test_default_plugins_name_existing_modules_and_are_not_also_entry_points():
         assert (ROOT / f"{rel}.py").exists() or (ROOT / rel / "__init__.py").exists(), module
 
 
+@pytest.mark.slow
+@pytest.mark.pip
 def test_a_wheel_install_carries_configs_assets_and_plugins(tmp_path):
     """Build the wheel, install it into a bare folder and compose the config from there."""
     import subprocess
@@ -50,7 +54,7 @@ def test_a_wheel_install_carries_configs_assets_and_plugins(tmp_path):
     wheel = next(tmp_path.glob("xicm-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "xicm/conf/config.yaml" in names and "xicm/conf/llm/gemma3_270m.yaml" in names
-    assert {"xicm/core/paper_table2.yaml", "xicm/core/templates/run.html.j2", "xicm/core/templates/sweep.html.j2"} <= set(names)
+    assert {"xicm/core/paper_table2.yaml", "xicm/core/xicm_logs.yaml", "xicm/core/templates/run.html.j2", "xicm/core/templates/sweep.html.j2"} <= set(names)
     assert any(n.startswith("xicm/plugins/simulators/sapien/assets/panda/") and n.endswith(".urdf") for n in names)
     assert not any(n.startswith(("xicm/tests/", "xicm/.venv/")) for n in names)
     target = tmp_path / "site"

@@ -92,3 +92,21 @@ def test_partial_keeps_at_most_26_actions():
     text = "[" + ", ".join("[1, 2, 3, 4, 5, 6, 1]" for _ in range(40)) + "]"
     assert len(parsing.parse_actions(text, WS, partial=True)) == 26
     assert parsing.partial_stop(text) is None
+
+
+# ------------------------------------------------------------------ X-ICM's reading (policy.parse_fallback)
+def test_xicm_reading_keeps_seven_integer_groups_without_a_range_check():
+    actions, fallback = parsing.parse_actions_xicm("[[10, 20, 30, 0, 36, 72, 1], [1, 2], [120, 5, 5, 80, 0, 0, 0]]", WS)
+    assert fallback is None and len(actions) == 2  # [1, 2] is skipped: integers, not 7 of them
+    assert actions[1].position[0] > WS[1][0] and actions[1].gripper_open is False  # off the grid: refused when executed
+
+
+def test_xicm_reading_falls_back_to_its_default_actions():
+    default = encoding.ints_to_action(parsing.XICM_DEFAULT_ACTION, WS)
+    many, why = parsing.parse_actions_xicm("[[10, 20, 30, 0, 36, 0, 1], [0.3, 0.2]]", WS)
+    assert many == [default] * parsing.MAX_ACTIONS and "not an integer" in why  # any non-integer item, in any group
+    echoed, why = parsing.parse_actions_xicm("[7-dim action_1, 7-dim action_2]", WS)
+    assert echoed == [default] * parsing.MAX_ACTIONS
+    for text in ("I would move the arm to the drawer.", "", None, "[ , ]"):
+        one, why = parsing.parse_actions_xicm(text, WS)
+        assert one == [default] and "one default action" in why, text

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from serve_wait import wait_for_serving
 
 from xicm.core.build import Run
 from xicm.core.episode import run_episode
@@ -38,17 +39,17 @@ class Replies:
         return reply
 
 
-def remote(port, timeout_s=10.0, **options):
+def remote(port, spec, timeout_s=10.0, **options):
     client = PolicyClient(server_uri("127.0.0.1", port), timeout_s)
     client.connect()
-    opts = {**dataclasses.asdict(RemotePolicyOptions()), "action_space": "key_pose", "state_key": None, **options}
-    return RemotePolicy(client, opts)
+    opts = {**dataclasses.asdict(RemotePolicyOptions()), "control_mode": "key_pose", "state_key": None, **options}
+    return RemotePolicy(client, opts, spec)
 
 
 @pytest.mark.parametrize(
     "reply, kind, words",
     [
-        ({"actions": np.zeros((2, 5))}, "bad_reply", "shape (2, 5); action space key_pose needs (N, 8)"),
+        ({"actions": np.zeros((2, 5))}, "bad_reply", "shape (2, 5); control mode key_pose needs (N, 8)"),
         ({"actions": np.full((1, 8), np.nan)}, "bad_reply", "NaN or infinite"),
         ({"act": np.zeros((1, 8))}, "bad_reply", "no 'actions' (keys: act)"),
         (RuntimeError("CUDA out of memory"), "server_error", "RuntimeError: CUDA out of memory"),
@@ -60,7 +61,7 @@ def test_a_bad_reply_fails_the_episode_with_a_reason_and_the_next_one_runs(sim, 
     good = {"actions": np.array([[0.1, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0]])}
     server = PolicyServer(Replies(reply, good), port=0).start()
     try:
-        policy = remote(server.port, timeout_s=1.0)
+        policy = remote(server.port, sim.control_spec(), timeout_s=1.0)
         first = run_episode(sim, policy, TASK, 0, 0, max_steps=1)
         assert (first.success, first.error_kind) == (False, kind) and words in first.error_message
         if kind == "server_timeout":
@@ -81,7 +82,7 @@ def test_the_observation_is_mapped_to_the_servers_keys(sim):
 
     server = PolicyServer(Recorder(), port=0).start()
     try:
-        policy = remote(server.port, images={"front": "observation/image", "wrist": "observation/wrist_image"}, image_size=64,
+        policy = remote(server.port, sim.control_spec(), images={"front": "observation/image", "wrist": "observation/wrist_image"}, image_size=64,
                         state_key="observation/state", state=["joint_positions", "gripper_width"])
         run_episode(sim, policy, TASK, 0, 0, max_steps=1)
     finally:
@@ -101,8 +102,8 @@ def test_a_served_oracle_plays_exactly_the_oracles_episodes(sim):
     served = ServedPolicy(Run(server_sim, OraclePolicy(server_sim), "oracle"))
     server = PolicyServer(served, port=0, metadata=served.metadata()).start()
     try:
-        policy = remote(server.port, action_space="auto", images={})
-        assert policy.observes is False and policy.space == "key_pose"
+        policy = remote(server.port, sim.control_spec(), control_mode="auto", images={})
+        assert policy.observes is False and policy.control_mode == "key_pose"
         for task, episode in (("open_drawer", 0), ("push_buttons", 1)):
             over_the_wire = run_episode(sim, policy, task, 0, episode)
             local = run_episode(sim, OraclePolicy(sim), task, 0, episode)
@@ -117,6 +118,7 @@ BIN = Path(sys.executable).parent
 
 
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_eval_against_xicm_serve_policy_and_against_nothing(tmp_path):
     port = free_port()
     common = ["benchmark.tasks=[push_buttons]", "episodes=2", "progress=false", f"paths.cache={tmp_path}/cache"]
@@ -128,11 +130,7 @@ def test_eval_against_xicm_serve_policy_and_against_nothing(tmp_path):
     server = subprocess.Popen([str(BIN / "xicm-serve-policy"), "policy=oracle", f"serve.port={port}", "simulator.image_size=32"],
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=tmp_path)
     try:
-        for line in server.stdout:  # wait for the port to open
-            if "serving policy 'oracle'" in line:
-                break
-        else:
-            pytest.fail("xicm-serve-policy exited before serving")
+        wait_for_serving(server, "oracle")
         served = subprocess.run([str(BIN / "xicm-eval"), "policy=remote", f"policy.port={port}", *common, "hydra.run.dir=served"],
                                 capture_output=True, text=True, cwd=tmp_path, timeout=600)
         assert served.returncode == 0, served.stderr[-3000:]
@@ -182,3 +180,22 @@ def test_an_image_mapping_on_the_command_line_replaces_the_default_whole():
         wrist_only = compose("config", overrides=["policy=remote", "policy.images={wrist: observation/wrist_image}"])
     assert dict(two.policy.images) == {"front": "observation.images.front", "wrist": "observation.images.wrist"}
     assert dict(wrist_only.policy.images) == {"wrist": "observation/wrist_image"}
+
+
+@pytest.mark.parametrize(
+    "options, words",
+    [
+        ({"control_mode": "pd_ee_delta_pose"}, "policy.control_mode is 'pd_ee_delta_pose'; the simulator's control modes are ee_delta, ee_pose,"),
+        ({"state_key": "observation/state", "state": ["joint_velocities"]}, "policy.state names joint_velocities; the simulator's proprio fields are joint_positions,"),
+    ],
+)
+def test_a_control_mode_or_state_field_the_simulator_does_not_declare_is_one_sentence(sim, options, words):
+    from xicm.core.errors import ConfigError
+
+    server = PolicyServer(Replies(), port=0).start()
+    try:
+        with pytest.raises(ConfigError) as err:
+            remote(server.port, sim.control_spec(), **options)
+        assert str(err.value).startswith(words) and "\n" not in str(err.value)
+    finally:
+        server.stop()

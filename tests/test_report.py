@@ -83,3 +83,13 @@ def test_report_command_has_help_and_refuses_a_folder_without_runs(tmp_path, cap
         report_main([str(tmp_path)])
     err = capsys.readouterr().err
     assert done.value.code == 2 and err == f"xicm: error: {tmp_path} has no episodes.jsonl and run.json, nor a folder below it; pass an xicm-eval output folder\n"
+
+
+def test_the_std_over_seeds_follows_the_runs_convention():
+    """ddof 1 (ours, the sample std) or 0 (X-ICM's np.std), as the run's report.std_ddof says."""
+    rows = [{"task": "a", "seed": s, "episode": 0, "success": s == 0} for s in (0, 1)]
+    sample, population = (report.summarise(rows, {"a": "level1"}, ["a"], ddof) for ddof in (1, 0))
+    assert sample["tasks"][0]["std"] == pytest.approx(70.71, abs=0.01)  # [100, 0] with ddof 1
+    assert population["tasks"][0]["std"] == pytest.approx(50.0) and population["std_ddof"] == 0
+    assert report.std_ddof({"config": {"report": {"std_ddof": 0}}}) == 0
+    assert report.std_ddof({"config": {}}) == 1  # a run.json from before the option

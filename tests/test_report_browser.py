@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.browser, pytest.mark.subprocess]
 
 TASKS = ("close_fridge", "unplug_charger")  # one Level-1 and one Level-2 task; the oracle solves both
 CHROMEDRIVER = shutil.which("chromedriver")

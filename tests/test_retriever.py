@@ -149,6 +149,21 @@ def test_similarity_features_cached_on_disk(pool, tmp_path):
     assert len(list(tmp_path.glob("*.npy"))) == 4
 
 
+def test_dot_scores_rank_by_the_raw_dot_product_and_keep_their_own_cache(tmp_path):
+    """score: dot (X-ICM's ranking) keeps the features' lengths: "close close jar" outranks the
+    exact phrase "close jar" under dot (2+1 > 1+1) but not under cosine."""
+    demos = [demo("a_task", 0, "close jar"), demo("b_task", 0, "close close jar")]
+    cos = SimilarityRetriever(encoder=FakeWordEncoder(), cache_dir=tmp_path)
+    dot = registry().create("retriever", {"name": "similarity", "cache_dir": str(tmp_path), "score": "dot"}, encoder=FakeWordEncoder())
+    assert [d.task for d, _ in cos.select(query("close jar"), demos, 2, np.random.default_rng(0))] == ["a_task", "b_task"]
+    got = dot.select(query("close jar"), demos, 2, np.random.default_rng(0))
+    assert [d.task for d, _ in got] == ["b_task", "a_task"]
+    assert got[0][1] == pytest.approx(3.0, abs=1e-2) and got[1][1] == pytest.approx(2.0, abs=1e-2)
+    assert dot.cache_path != cos.cache_path and len(list(tmp_path.glob("*.npy"))) == 2
+    with pytest.raises(ConfigError, match="score"):
+        registry().create("retriever", {"name": "similarity", "score": "l2"}, encoder=FakeWordEncoder())
+
+
 def test_similarity_default_cache_dir_from_env(pool, tmp_path, monkeypatch):
     monkeypatch.setenv("XICM_CACHE", str(tmp_path / "c"))
     r = SimilarityRetriever(encoder=FakeWordEncoder())

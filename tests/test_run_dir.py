@@ -5,15 +5,19 @@ import json
 
 import pytest
 from hydra import compose, initialize_config_module
+from omegaconf import OmegaConf
 
 import xicm.conf  # noqa: F401  (registers the configs' resolvers)
 from xicm.core.errors import ConfigError
 from xicm.core.run_dir import (
+    ADDED_ON_RESUME,
     GROWS_ON_RESUME,
+    IDENTITY,
     OUTSIDE_IDENTITY,
     RunDir,
     config_fingerprint,
     find_runs,
+    identity,
     outside_identity,
     override_key,
 )
@@ -79,11 +83,36 @@ def test_appending_cuts_a_torn_tail_and_syncs_whole_lines(tmp_path):
 
 def test_a_folder_of_another_config_is_refused_with_one_sentence(tmp_path):
     run = RunDir(tmp_path)
-    run.check_same_run({"prompt": {"k": 2}})  # no run.json yet: nothing to compare
-    run.meta.write_text(json.dumps({"fingerprint": config_fingerprint({"prompt": {"k": 2}, "seeds": [0]})}))
-    run.check_same_run({"prompt": {"k": 2}, "seeds": [0, 1], "episodes": 9, "progress": False})
-    with pytest.raises(ConfigError, match=r"holds episodes of a different config \(fingerprint \w+ != \w+\)"):
+    assert run.check_same_run({"prompt": {"k": 2}}) == {}  # no run.json yet: nothing to compare
+    first = {"prompt": {"k": 2}, "seeds": [0]}
+    run.meta.write_text(json.dumps({"fingerprint": config_fingerprint(first), IDENTITY: identity(first)}))
+    assert run.check_same_run({"prompt": {"k": 2}, "seeds": [0, 1], "episodes": 9, "progress": False}) == {}
+    with pytest.raises(ConfigError, match=r"holds episodes of a different config \(fingerprint \w+ != \w+: prompt.k 2 -> 3\); choose"):
         run.check_same_run({"prompt": {"k": 3}, "seeds": [0]})
+    with pytest.raises(ConfigError, match=r"prompt.k 2 -> \(absent\)"):  # a key the run had is gone
+        run.check_same_run({"prompt": {"n": 2}, "seeds": [0]})
+
+
+def test_a_resume_accepts_options_declared_after_the_run_started_and_says_which(tmp_path):
+    run = RunDir(tmp_path)
+    first = {"prompt": {"k": 2, "path": "${paths.cache}/x"}, "seeds": [0]}
+    run.meta.write_text(json.dumps({"fingerprint": config_fingerprint(first), IDENTITY: identity(first)}))
+    later = {"prompt": {"k": 2, "path": "${paths.cache}/x", "score": "cosine"}, "simulator": {"robot": "ours"}, "seeds": [0]}
+    assert run.check_same_run(later) == {"prompt.score": "cosine", "simulator.robot": "ours"}
+    with pytest.raises(ConfigError, match=r"prompt.k 2 -> 4"):  # an added key does not hide a changed one
+        run.check_same_run({**later, "prompt": {**later["prompt"], "k": 4}})
+    # run.json files from before IDENTITY keep only the resolved config: compared with the resolved new one
+    run.meta.write_text(json.dumps({"fingerprint": "old", "config": {"prompt": {"k": 2}, "seeds": [0], "paths": {"x": 1}}}))
+    assert run.check_same_run(OmegaConf.create({"prompt": {"k": 2, "n": "${seeds}"}, "seeds": [0]})) == {"prompt.n": "[0]"}
+    run.meta.write_text(json.dumps({"fingerprint": "old", ADDED_ON_RESUME: {"a.b": 1}}))
+    assert run.added_on_resume({"c": 2}) == {"a.b": 1, "c": 2}
+
+
+def test_a_run_json_without_a_config_is_refused_when_the_fingerprint_differs(tmp_path):
+    run = RunDir(tmp_path)
+    run.meta.write_text(json.dumps({"fingerprint": "0123"}))
+    with pytest.raises(ConfigError, match=r"holds episodes of a different config \(fingerprint 0123 != \w+\); choose"):
+        run.check_same_run({"prompt": {"k": 3}})
 
 
 def test_override_keys_and_prefix_matching():

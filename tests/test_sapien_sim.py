@@ -1,7 +1,7 @@
 """SapienSimulator behaviour: seeded resets, success checks, scripted demos, replay, cameras.
 
-Uses the session-wide `sim` fixture (conftest.py): the first render of a process compiles
-shaders, so one simulator serves every test.
+Tests that render share the session's `sim`; those whose outcome is exact physics take a fresh
+`physics_sim` each (conftest.py), so they pass in any order.
 """
 
 import json
@@ -55,7 +55,7 @@ def test_seeded_reset_is_reproducible(sim, task):
     assert not np.allclose(a, other_episode, atol=SETTLE_TOL)
 
 
-def test_same_seed_gives_the_same_scene_in_another_process(sim):
+def test_same_seed_gives_the_same_scene_in_another_process(physics_sim):
     code = (
         "import json, numpy as np\n"
         "from xicm.core.plugins import get_registry\n"
@@ -71,9 +71,9 @@ def test_same_seed_gives_the_same_scene_in_another_process(sim):
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     theirs = json.loads(run.stdout.strip().splitlines()[-1])
     for task in TASKS:
-        sim.reset_state(task, 7, 0)
+        physics_sim.reset_state(task, 7, 0)
         tol = SETTLE_TOL_BY_TASK.get(task, SETTLE_TOL)
-        np.testing.assert_allclose(np.concatenate(theirs[task]), scene_state(sim), rtol=0, atol=tol, err_msg=task)
+        np.testing.assert_allclose(np.concatenate(theirs[task]), scene_state(physics_sim), rtol=0, atol=tol, err_msg=task)
 
 
 # ------------------------------------------------------------------ success checks
@@ -87,10 +87,10 @@ def test_doing_nothing_is_not_a_success(sim, task):
 
 @pytest.mark.parametrize("task", TASKS)
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_scripted_demo_succeeds(sim, task, seed):
-    sim.reset_state(task, seed, 0)
-    traj = sim.demonstrate()
-    assert traj.success, sim.last_demo_error
+def test_scripted_demo_succeeds(physics_sim, task, seed):
+    physics_sim.reset_state(task, seed, 0)
+    traj = physics_sim.demonstrate()
+    assert traj.success, physics_sim.last_demo_error
     n = len(traj.gripper_open)
     assert traj.joint_positions.shape == (n, 7) and traj.joint_velocities.shape == (n, 7)
     assert traj.ee_poses.shape == (n, 7) and traj.gripper_open.dtype == bool
@@ -99,60 +99,60 @@ def test_scripted_demo_succeeds(sim, task, seed):
     assert np.max(np.abs(traj.joint_velocities[-1])) < 0.1  # the arm comes to rest at the end
 
 
-def test_wrong_drawer_is_not_a_success(sim):
+def test_wrong_drawer_is_not_a_success(physics_sim):
     for seed in range(20):
-        sim.reset_state("open_drawer", seed, 0)
-        if sim.task.variation == 0:
+        physics_sim.reset_state("open_drawer", seed, 0)
+        if physics_sim.task.variation == 0:
             break
-    target = sim.task.variation
+    target = physics_sim.task.variation
     wrong = (target + 1) % 3
-    sim.task.variation = wrong  # let the demonstrator open another drawer
-    actions = list(sim.task.demonstration())
-    sim.task.variation = target
+    physics_sim.task.variation = wrong  # let the demonstrator open another drawer
+    actions = list(physics_sim.task.demonstration())
+    physics_sim.task.variation = target
     for action in actions:
-        assert sim.execute(action).ok
-    assert sim.task.travel()[wrong] > 0.15
-    assert not sim.is_success()
+        assert physics_sim.execute(action).ok
+    assert physics_sim.task.travel()[wrong] > 0.15
+    assert not physics_sim.is_success()
 
 
-def test_grasped_reports_what_the_fingers_hold(sim):
-    sim.reset_state("open_drawer", 4, 0)
-    approach, grasp, _pull = list(sim.task.demonstration())
-    handle = sim.task.handles[sim.task.variation].entity.per_scene_id
-    sim.execute(approach)
-    assert sim.task.grasped() == set()
-    sim.execute(grasp)
-    assert sim.task.grasped() == {handle}
-    sim.execute(KeyAction(grasp.position, grasp.quat_wxyz, True))
-    assert sim.task.grasped() == set()
+def test_grasped_reports_what_the_fingers_hold(physics_sim):
+    physics_sim.reset_state("open_drawer", 4, 0)
+    approach, grasp, _pull = list(physics_sim.task.demonstration())
+    handle = physics_sim.task.handles[physics_sim.task.variation].entity.per_scene_id
+    physics_sim.execute(approach)
+    assert physics_sim.task.grasped() == set()
+    physics_sim.execute(grasp)
+    assert physics_sim.task.grasped() == {handle}
+    physics_sim.execute(KeyAction(grasp.position, grasp.quat_wxyz, True))
+    assert physics_sim.task.grasped() == set()
 
 
-def test_pressing_a_wrong_button_first_is_not_a_success(sim):
-    sim.reset_state("push_buttons", 0, 0)
-    targets = list(sim.task.targets)
+def test_pressing_a_wrong_button_first_is_not_a_success(physics_sim):
+    physics_sim.reset_state("push_buttons", 0, 0)
+    targets = list(physics_sim.task.targets)
     wrong = next(i for i in range(3) if i != targets[0])
-    sim.task.targets = [wrong]  # let the demonstrator press another button first ...
-    wrong_press = list(sim.task.demonstration())
-    sim.task.targets = targets
-    right_presses = list(sim.task.demonstration())  # ... then the named ones
+    physics_sim.task.targets = [wrong]  # let the demonstrator press another button first ...
+    wrong_press = list(physics_sim.task.demonstration())
+    physics_sim.task.targets = targets
+    right_presses = list(physics_sim.task.demonstration())  # ... then the named ones
     for action in wrong_press:
-        assert not sim.execute(action).success
-    assert sim.task.pressed[0] == wrong
+        assert not physics_sim.execute(action).success
+    assert physics_sim.task.pressed[0] == wrong
     for action in right_presses:
-        assert sim.execute(action).ok
-    assert set(targets) <= set(sim.task.pressed)
-    assert not sim.is_success()
+        assert physics_sim.execute(action).ok
+    assert set(targets) <= set(physics_sim.task.pressed)
+    assert not physics_sim.is_success()
 
 
-def test_close_microwave_counts_only_a_real_closing(sim):
-    sim.reset_state("close_microwave", 5, 0)
-    actions = list(sim.task.demonstration())
+def test_close_microwave_counts_only_a_real_closing(physics_sim):
+    physics_sim.reset_state("close_microwave", 5, 0)
+    actions = list(physics_sim.task.demonstration())
     for action in actions[:3]:  # approach and the first 30-degree push
-        sim.execute(action)
-    closed_by = np.rad2deg(sim.task.start_angle - sim.task.angle())
-    assert 15 < closed_by < 40 and not sim.is_success()
+        physics_sim.execute(action)
+    closed_by = np.rad2deg(physics_sim.task.start_angle - physics_sim.task.angle())
+    assert 15 < closed_by < 40 and not physics_sim.is_success()
     for action in actions[3:]:
-        last = sim.execute(action)
+        last = physics_sim.execute(action)
     assert last.success
 
 
@@ -169,13 +169,13 @@ def test_close_microwave_counts_only_a_real_closing(sim):
         ((float("nan"), 0.0, 1.0), (0, 1, 0, 0), "not a finite"),
     ],
 )
-def test_unreachable_pose_is_reported_not_raised(sim, position, quat, why):
-    sim.reset_state("push_buttons", 0, 0)
-    before = sim.robot.arm_qpos()
-    outcome = sim.execute(KeyAction(position, quat, True))
+def test_unreachable_pose_is_reported_not_raised(physics_sim, position, quat, why):
+    physics_sim.reset_state("push_buttons", 0, 0)
+    before = physics_sim.robot.arm_qpos()
+    outcome = physics_sim.execute(KeyAction(position, quat, True))
     assert not outcome.ok and outcome.error_kind == "unreachable" and not outcome.success
     assert why in outcome.error_message
-    assert np.allclose(sim.robot.arm_qpos(), before, atol=1e-3)  # the arm did not move
+    assert np.allclose(physics_sim.robot.arm_qpos(), before, atol=1e-3)  # the arm did not move
 
 
 def test_execute_without_a_task_is_a_sim_error():
@@ -188,16 +188,23 @@ def test_execute_without_a_task_is_a_sim_error():
 
 
 # ------------------------------------------------------------------ replay
-@pytest.mark.parametrize("task", TASKS)
-def test_quantised_key_actions_of_a_demo_replay(sim, task):
+#: the replay check's tasks in the fast lane; the full suite replays every task (~2 min)
+FAST_REPLAY_TASKS = ("open_drawer", "push_buttons", "close_jar", "put_money_in_safe")
+REPLAY_TASKS = [
+    pytest.param(t, marks=() if t in FAST_REPLAY_TASKS else (pytest.mark.slow, pytest.mark.every_task)) for t in TASKS
+]
+
+
+@pytest.mark.parametrize("task", REPLAY_TASKS)
+def test_quantised_key_actions_of_a_demo_replay(physics_sim, task):
     """X-ICM's premise: the demo's key frames, as 7-integer text, solve the episode again."""
     for seed in (0, 1):
-        sim.reset_state(task, seed, 0)
-        traj = sim.demonstrate()
-        actions = demo_key_actions(traj, sim.workspace)
+        physics_sim.reset_state(task, seed, 0)
+        traj = physics_sim.demonstrate()
+        actions = demo_key_actions(traj, physics_sim.workspace)
         # one LLM reply holds at most MAX_ACTIONS actions; longer demos need a re-query
         assert 2 <= len(actions) <= 2 * MAX_ACTIONS
-        ok, err = replay(sim, task, seed, 0, actions)
+        ok, err = replay(physics_sim, task, seed, 0, actions)
         assert ok, (seed, err)
 
 
@@ -286,3 +293,21 @@ def test_wrist_camera_rides_on_the_hand(sim):
     assert sim.execute(target).ok
     after = sim.observe().cameras["wrist"].cam_to_world
     np.testing.assert_allclose(after[:3, 3] - before[:3, 3], [0.1, 0.0, -0.1], atol=0.01)
+
+
+def test_variation_names_the_variation_reset_drew(sim):
+    """close_jar's variation is the target jar's colour: sampled per (seed, task, episode), the
+    instruction names that colour; with sample_variations off every episode is variation 0."""
+    drawn = {}
+    for episode in range(6):
+        sim.reset_state("close_jar", 10_000, episode)
+        drawn[episode] = (sim.variation(), sim.instruction())
+    assert len({v for v, _ in drawn.values()}) > 1, drawn
+    assert all(len({words for v2, words in drawn.values() if v2 == v}) == 1 for v, _ in drawn.values()), drawn
+    sim.sample_variations = False
+    try:
+        for episode in drawn:
+            sim.reset_state("close_jar", 10_000, episode)
+            assert sim.variation() == 0
+    finally:
+        sim.sample_variations = True

@@ -26,7 +26,7 @@ def test_a_recorded_demo_replays_to_success_in_every_control_mode(physics, task)
     rec = physics.recording = physics.record_scripted()
     assert rec.success, rec.error
     failed = {}
-    for mode in physics.control_modes():
+    for mode in physics.control_spec().mode_names(per_step=True):
         ok, error = replay_steps(physics, rec, mode)
         if not ok:
             failed[mode] = error
@@ -49,6 +49,8 @@ def test_a_recording_has_one_row_per_control_step_and_key_actions_in_order(physi
     assert len(rec.key_actions) == len(rec.key_action_steps)
     for mode, dim in ACTION_DIMS.items():
         assert actions(rec, mode).shape == (t, dim)
+        np.testing.assert_array_equal(rec.actions[mode], actions(rec, mode))  # the recording carries them
+    assert sorted(rec.actions) == sorted(physics.control_spec().mode_names(per_step=True))
 
 
 def test_a_recording_renders_the_chosen_cameras_per_control_step(sim):
@@ -142,5 +144,7 @@ def test_a_simulator_without_per_step_control_says_so_by_name():
 
     with pytest.raises(NotImplementedError, match="KeyOnly has no per-step control"):
         KeyOnly().step([0.0] * 7)
-    with pytest.raises(NotImplementedError, match="KeyOnly has no per-step control"):
-        KeyOnly().control_modes()
+    with pytest.raises(NotImplementedError, match="KeyOnly declares no control modes"):
+        KeyOnly().control_spec()
+    with pytest.raises(NotImplementedError, match="KeyOnly cannot record scripted demos"):
+        KeyOnly().record_scripted()

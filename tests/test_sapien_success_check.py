@@ -77,3 +77,25 @@ def test_an_unknown_success_check_is_one_clear_sentence():
 
     with pytest.raises(ValueError, match="simulator option success_check is 'often'; allowed: per_action, per_frame"):
         SapienSimulator(render=False, success_check="often", tasks={})
+
+
+def test_gripper_after_success_runs_the_command_and_reads_success_once():
+    """take_lid_off_saucepan succeeds while the lid is lifted in the hand. A lift whose gripper
+    command opens the hand: skipped under per_frame (the success stands), run under
+    gripper_after_success (the lid drops, and success is read after: not met), as X-ICM's RLBench."""
+    from dataclasses import replace
+
+    from xicm.core.plugins import get_registry
+
+    seen = {}
+    for after in (False, True):
+        sim = get_registry().create_simulator(
+            {"name": "sapien", "render": False, "success_check": "per_frame", "gripper_after_success": after}
+        )
+        sim.reset_state("take_lid_off_saucepan", 0, 0)
+        approach, grasp, lift = list(sim.task.demonstration())
+        outcomes = [sim.execute(a) for a in (approach, grasp, replace(lift, gripper_open=True))]
+        seen[after] = ([o.success for o in outcomes], sim.robot.gripper_open, sim.controller.halted)
+        sim.close()
+    assert seen[False] == ([False, False, True], False, True)  # halted mid-lift, the hand still closed
+    assert seen[True] == ([False, False, False], True, False)  # the hand opened, the lid fell: not a success

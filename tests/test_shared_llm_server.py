@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from test_llm_openai_compatible import FakeOpenAI
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.ray, pytest.mark.subprocess]
 
 BIN = Path(sys.executable).parent
 REPLY = "[[50, 50, 30, 0, 36, 0, 1]]"

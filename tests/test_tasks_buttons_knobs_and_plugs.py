@@ -29,92 +29,92 @@ def _press(sim, task, depth: float) -> float:
 
 
 @pytest.mark.parametrize("name", ["lamp_off", "lamp_on"])
-def test_lamp_button_touched_but_not_pressed_enough_is_not_a_success(sim, name):
-    sim.reset_state(name, 6, 0)
-    task = sim.task
+def test_lamp_button_touched_but_not_pressed_enough_is_not_a_success(physics_sim, name):
+    physics_sim.reset_state(name, 6, 0)
+    task = physics_sim.task
     lit = task.lit
-    pressed = _press(sim, task, 0.0015)
+    pressed = _press(physics_sim, task, 0.0015)
     assert 0.0 < pressed < 0.003
-    assert task.lit == lit and not sim.is_success()
-    _press(sim, task, 0.006)  # a real press toggles the light
-    assert task.lit != lit and sim.is_success()
+    assert task.lit == lit and not physics_sim.is_success()
+    _press(physics_sim, task, 0.006)  # a real press toggles the light
+    assert task.lit != lit and physics_sim.is_success()
 
 
 @pytest.mark.parametrize("name", ["lamp_off", "lamp_on"])
-def test_lamp_pressed_twice_is_back_where_it_started(sim, name):
-    sim.reset_state(name, 7, 0)
-    task = sim.task
+def test_lamp_pressed_twice_is_back_where_it_started(physics_sim, name):
+    physics_sim.reset_state(name, 7, 0)
+    task = physics_sim.task
     lit = task.lit
     assert lit == (name == "lamp_off")
-    _press(sim, task, 0.006)
-    assert task.lit != lit and sim.is_success()
-    _press(sim, task, 0.006)
+    _press(physics_sim, task, 0.006)
+    assert task.lit != lit and physics_sim.is_success()
+    _press(physics_sim, task, 0.006)
     assert task.presses == 2 and task.lit == lit
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_lamp_light_shows_on_the_bulb(sim):
-    sim.reset_state("lamp_on", 8, 0)
-    task = sim.task
+def test_lamp_light_shows_on_the_bulb(physics_sim):
+    physics_sim.reset_state("lamp_on", 8, 0)
+    task = physics_sim.task
     assert np.allclose(task.bulb_look.emission, 0.0)
-    run_demo(sim)
-    assert sim.is_success() and task.lit
+    run_demo(physics_sim)
+    assert physics_sim.is_success() and task.lit
     assert np.max(task.bulb_look.emission[:3]) > 0.5
 
 
 # ------------------------------------------------------------------ turn_oven_on
-def test_turning_the_oven_knob_only_a_little_is_not_a_success(sim, monkeypatch):
+def test_turning_the_oven_knob_only_a_little_is_not_a_success(physics_sim, monkeypatch):
     monkeypatch.setattr(turn_oven_on, "TURN", np.deg2rad(45.0))
-    sim.reset_state("turn_oven_on", 1, 0)
-    run_demo(sim)
-    assert 0.5 < sim.task.turned()[0] < 1.0
-    assert not sim.is_success()
+    physics_sim.reset_state("turn_oven_on", 1, 0)
+    run_demo(physics_sim)
+    assert 0.5 < physics_sim.task.turned()[0] < 1.0
+    assert not physics_sim.is_success()
 
 
 # ------------------------------------------------------------------ take_usb_out_of_computer
-def test_usb_stick_pulled_out_but_still_held_is_not_a_success(sim):
-    sim.reset_state("take_usb_out_of_computer", 2, 0)
-    task = sim.task
+def test_usb_stick_pulled_out_but_still_held_is_not_a_success(physics_sim):
+    physics_sim.reset_state("take_usb_out_of_computer", 2, 0)
+    task = physics_sim.task
     for action in task.demonstration():
-        if action.gripper_open and not sim.robot.gripper_open:
+        if action.gripper_open and not physics_sim.robot.gripper_open:
             # the demonstrator is about to let go: the stick is out of the port, still in the hand
             assert not task.plug_in_port() and task.stick.per_scene_id in task.grasped()
-            assert not sim.is_success()
-            assert sim.execute(action).success  # putting it down and letting go completes the task
+            assert not physics_sim.is_success()
+            assert physics_sim.execute(action).success  # putting it down and letting go completes the task
             break
-        go(sim, action)
+        go(physics_sim, action)
     else:
         pytest.fail("the demonstrator never let go of the stick")
 
 
-def test_letting_go_of_the_usb_stick_without_pulling_is_not_a_success(sim):
-    sim.reset_state("take_usb_out_of_computer", 3, 0)
-    task = sim.task
+def test_letting_go_of_the_usb_stick_without_pulling_is_not_a_success(physics_sim):
+    physics_sim.reset_state("take_usb_out_of_computer", 3, 0)
+    task = physics_sim.task
     actions = task.demonstration()
     approach, grasp = next(actions), next(actions)
-    go(sim, approach)
-    go(sim, grasp)
+    go(physics_sim, approach)
+    go(physics_sim, grasp)
     assert task.grasped()
-    go(sim, moved(grasp, gripper_open=True))  # open again where it gripped
-    go(sim, approach)
+    go(physics_sim, moved(grasp, gripper_open=True))  # open again where it gripped
+    go(physics_sim, approach)
     assert task.plug_in_port() and not task.grasped()
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
 # ------------------------------------------------------------------ unplug_charger
-def test_charger_pulled_only_a_little_is_not_unplugged(sim, monkeypatch):
+def test_charger_pulled_only_a_little_is_not_unplugged(physics_sim, monkeypatch):
     monkeypatch.setattr(unplug_charger, "PULL", 0.008)  # pins are 19 mm long
-    sim.reset_state("unplug_charger", 4, 0)
-    run_demo(sim)
-    task = sim.task
+    physics_sim.reset_state("unplug_charger", 4, 0)
+    run_demo(physics_sim)
+    task = physics_sim.task
     assert task.pins_in_socket() and task.grasped()
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_unplugged_charger_may_stay_in_the_hand(sim):
-    sim.reset_state("unplug_charger", 5, 0)
-    assert sim.task.pins_in_socket()
-    run_demo(sim)
-    task = sim.task
+def test_unplugged_charger_may_stay_in_the_hand(physics_sim):
+    physics_sim.reset_state("unplug_charger", 5, 0)
+    assert physics_sim.task.pins_in_socket()
+    run_demo(physics_sim)
+    task = physics_sim.task
     assert task.charger.per_scene_id in task.grasped()  # holding it is allowed
-    assert sim.is_success()
+    assert physics_sim.is_success()

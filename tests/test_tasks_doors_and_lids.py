@@ -15,26 +15,26 @@ from xicm.plugins.simulators.sapien.task_base import lid_push_point
 from xicm.plugins.simulators.sapien.tasks.unseen import open_grill, take_lid_off_saucepan
 
 
-def test_close_fridge_door_pushed_only_a_little_is_not_a_success(sim):
-    sim.reset_state("close_fridge", 0, 0)
-    task = sim.task
+def test_close_fridge_door_pushed_only_a_little_is_not_a_success(physics_sim):
+    physics_sim.reset_state("close_fridge", 0, 0)
+    task = physics_sim.task
     theta0 = task.angle()
     p, q, turn = task._push_pose(theta0, 0.06)
-    go(sim, task.key(p + [0, 0, 0.06], q, False))
-    go(sim, task.key(p, q, False))
+    go(physics_sim, task.key(p + [0, 0, 0.06], q, False))
+    go(physics_sim, task.key(p, q, False))
     p, q, _ = task._push_pose(theta0 - np.deg2rad(20), 0.015, turn)
-    go(sim, task.key(p, q, False))
+    go(physics_sim, task.key(p, q, False))
     closed = theta0 - task.angle()
     assert np.deg2rad(10) < closed < np.deg2rad(28)
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
     # pushing on to more than 30 degrees completes it
     p, q, _ = task._push_pose(theta0 - np.deg2rad(45), 0.015, turn)
-    assert sim.execute(task.key(p, q, False)).success
+    assert physics_sim.execute(task.key(p, q, False)).success
 
 
-def test_close_fridge_bottom_door_does_not_open(sim):
-    sim.reset_state("close_fridge", 1, 0)
-    assert sim.task.fridge.dof == 1  # only the top door is hinged
+def test_close_fridge_bottom_door_does_not_open(physics_sim):
+    physics_sim.reset_state("close_fridge", 1, 0)
+    assert physics_sim.task.fridge.dof == 1  # only the top door is hinged
 
 
 def _push_over(sim, task, stop_after: float, retreat: bool):
@@ -58,88 +58,88 @@ def _push_over(sim, task, stop_after: float, retreat: bool):
     return theta0
 
 
-def test_laptop_lid_pushed_a_little_stays_open(sim):
-    sim.reset_state("close_laptop_lid", 2, 0)
-    task = sim.task
-    theta0 = _push_over(sim, task, 0.25, retreat=True)
+def test_laptop_lid_pushed_a_little_stays_open(physics_sim):
+    physics_sim.reset_state("close_laptop_lid", 2, 0)
+    task = physics_sim.task
+    theta0 = _push_over(physics_sim, task, 0.25, retreat=True)
     assert np.pi / 2 < task.angle() < theta0  # still leaning back (or falling back to its stop)
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_laptop_lid_half_closed_is_not_a_success(sim):
-    sim.reset_state("close_laptop_lid", 3, 0)
-    task = sim.task
+def test_laptop_lid_half_closed_is_not_a_success(physics_sim):
+    physics_sim.reset_state("close_laptop_lid", 3, 0)
+    task = physics_sim.task
     theta0 = task.angle()
-    _push_over(sim, task, 0.3, retreat=False)  # held just behind the vertical
+    _push_over(physics_sim, task, 0.3, retreat=False)  # held just behind the vertical
     assert 0.2 < theta0 - task.angle() < 1.0
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
     for action in list(task.demonstration())[2:]:  # push it over: it falls shut
-        go(sim, action)
-    assert sim.is_success() and task.angle() < 0.1
+        go(physics_sim, action)
+    assert physics_sim.is_success() and task.angle() < 0.1
 
 
-def test_toilet_seat_pushed_a_little_falls_back_up(sim):
-    sim.reset_state("toilet_seat_down", 4, 0)
-    task = sim.task
-    theta0 = _push_over(sim, task, 0.2, retreat=True)
+def test_toilet_seat_pushed_a_little_falls_back_up(physics_sim):
+    physics_sim.reset_state("toilet_seat_down", 4, 0)
+    task = physics_sim.task
+    theta0 = _push_over(physics_sim, task, 0.2, retreat=True)
     assert abs(task.angle() - theta0) < 0.05  # fell back against its hinge stop
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_toilet_seat_success_needs_it_lowered_by_1_7_rad(sim):
-    sim.reset_state("toilet_seat_down", 5, 0)
-    task = sim.task
+def test_toilet_seat_success_needs_it_lowered_by_1_7_rad(physics_sim):
+    physics_sim.reset_state("toilet_seat_down", 5, 0)
+    task = physics_sim.task
     task.toilet.set_qpos(np.array([task.start_angle - 1.6]))  # most of the way down, not quite
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
     task.toilet.set_qpos(np.array([0.0]))
-    assert sim.is_success()
+    assert physics_sim.is_success()
 
 
-def test_grill_lid_lifted_then_released_is_not_a_success(sim):
-    sim.reset_state("open_grill", 9, 0)
-    task = sim.task
+def test_grill_lid_lifted_then_released_is_not_a_success(physics_sim):
+    physics_sim.reset_state("open_grill", 9, 0)
+    task = physics_sim.task
     actions = list(task.demonstration())
     for action in actions[:4]:  # approach and grasp the handle
-        go(sim, action)
+        go(physics_sim, action)
     phi = np.deg2rad(35.0)
     p, q, approach = task._grasp(phi, open_grill.PITCH - phi)  # the demo's world pitch, part-way up
-    go(sim, task.key(p, q, False))
+    go(physics_sim, task.key(p, q, False))
     assert np.deg2rad(25) < task.angle() < np.deg2rad(45)
-    assert not sim.is_success()  # held part-way open
-    go(sim, task.key(p, q, True))  # let go and back off: the lid falls shut
-    go(sim, task.key(p - approach * 0.10, q, True))
+    assert not physics_sim.is_success()  # held part-way open
+    go(physics_sim, task.key(p, q, True))  # let go and back off: the lid falls shut
+    go(physics_sim, task.key(p - approach * 0.10, q, True))
     for _ in range(40):
-        sim.controller.step_frame()
+        physics_sim.controller.step_frame()
     assert task.angle() < np.deg2rad(5)
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_grill_opened_and_held_is_a_success(sim):
-    sim.reset_state("open_grill", 10, 0)
-    task = sim.task
-    run_demo(sim)
+def test_grill_opened_and_held_is_a_success(physics_sim):
+    physics_sim.reset_state("open_grill", 10, 0)
+    task = physics_sim.task
+    run_demo(physics_sim)
     assert task.angle() > np.deg2rad(55) and task.grasped()
-    assert sim.is_success()
+    assert physics_sim.is_success()
 
 
-def test_saucepan_lid_lifted_then_dropped_is_not_a_success(sim):
-    sim.reset_state("take_lid_off_saucepan", 6, 0)
-    task = sim.task
+def test_saucepan_lid_lifted_then_dropped_is_not_a_success(physics_sim):
+    physics_sim.reset_state("take_lid_off_saucepan", 6, 0)
+    task = physics_sim.task
     actions = list(task.demonstration())
     for action in actions:
-        go(sim, action)
-    assert sim.is_success()
-    go(sim, moved(actions[-1], gripper_open=True))  # let go of the lid above the pan
+        go(physics_sim, action)
+    assert physics_sim.is_success()
+    go(physics_sim, moved(actions[-1], gripper_open=True))  # let go of the lid above the pan
     for _ in range(20):
-        sim.controller.step_frame()
+        physics_sim.controller.step_frame()
     assert not task.grasped() and not task.lid_lifted()
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_saucepan_lid_raised_only_a_little_is_not_a_success(sim, monkeypatch):
+def test_saucepan_lid_raised_only_a_little_is_not_a_success(physics_sim, monkeypatch):
     monkeypatch.setattr(take_lid_off_saucepan, "LIFT", 0.03)
-    sim.reset_state("take_lid_off_saucepan", 7, 0)
-    run_demo(sim)
-    task = sim.task
+    physics_sim.reset_state("take_lid_off_saucepan", 7, 0)
+    run_demo(physics_sim)
+    task = physics_sim.task
     assert task.lid.per_scene_id in task.grasped() and not task.lid_lifted()
-    assert not sim.is_success()
+    assert not physics_sim.is_success()

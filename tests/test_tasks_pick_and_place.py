@@ -24,12 +24,12 @@ PLACED = [
 
 
 @pytest.mark.parametrize(("task", "seed", "placed"), PLACED, ids=[c[0] for c in PLACED])
-def test_an_object_in_place_but_still_held_is_not_a_success_until_let_go(sim, task, seed, placed):
-    sim.reset_state(task, seed, 0)
-    release = hold_at_release(sim)
-    assert placed(sim.task) and sim.task.grasped()
-    assert not sim.is_success()
-    assert sim.execute(release).success and placed(sim.task)
+def test_an_object_in_place_but_still_held_is_not_a_success_until_let_go(physics_sim, task, seed, placed):
+    physics_sim.reset_state(task, seed, 0)
+    release = hold_at_release(physics_sim)
+    assert placed(physics_sim.task) and physics_sim.task.grasped()
+    assert not physics_sim.is_success()
+    assert physics_sim.execute(release).success and placed(physics_sim.task)
 
 
 def _away_from(y: float, distance: float) -> list[float]:
@@ -48,87 +48,87 @@ BESIDE = [
 
 
 @pytest.mark.parametrize(("task", "seed", "after", "offset", "placed"), BESIDE, ids=[c[0] for c in BESIDE])
-def test_an_object_put_down_beside_its_place_is_not_a_success(sim, task, seed, after, offset, placed):
-    sim.reset_state(task, seed, 0)
-    run_demo(sim, shifted(after, offset(sim.task)))
-    assert not placed(sim.task) and not sim.task.grasped()
-    assert not sim.is_success()
+def test_an_object_put_down_beside_its_place_is_not_a_success(physics_sim, task, seed, after, offset, placed):
+    physics_sim.reset_state(task, seed, 0)
+    run_demo(physics_sim, shifted(after, offset(physics_sim.task)))
+    assert not placed(physics_sim.task) and not physics_sim.task.grasped()
+    assert not physics_sim.is_success()
 
 
-def test_toilet_roll_dropped_beside_the_stand_is_not_a_success(sim):
-    sim.reset_state("put_toilet_roll_on_stand", 1, 0)
-    task = sim.task
+def test_toilet_roll_dropped_beside_the_stand_is_not_a_success(physics_sim):
+    physics_sim.reset_state("put_toilet_roll_on_stand", 1, 0)
+    task = physics_sim.task
     stand = task.post_axis()
     task.post_axis = lambda: stand + [0.0, 0.14 if stand[1] < 0 else -0.14, 0.0]  # aim beside the stand
-    run_demo(sim)
+    run_demo(physics_sim)
     del task.post_axis  # the real stand again
     assert np.linalg.norm(np.asarray(task.roll.pose.p)[:2] - stand[:2]) > 0.08
     assert not task.on_stand() and not task.grasped()
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_light_bulb_in_the_lamp_but_still_held_is_not_a_success_until_let_go(sim):
-    sim.reset_state("light_bulb_in", 0, 0)
-    bulb = sim.task.bulbs[sim.task.variation].per_scene_id
-    demo = sim.task.demonstration()
+def test_light_bulb_in_the_lamp_but_still_held_is_not_a_success_until_let_go(physics_sim):
+    physics_sim.reset_state("light_bulb_in", 0, 0)
+    bulb = physics_sim.task.bulbs[physics_sim.task.variation].per_scene_id
+    demo = physics_sim.task.demonstration()
     for _ in range(5):  # approach, grasp, lift, carry, lower the screw base into the socket
         inserted = next(demo)
-        go(sim, inserted)
+        go(physics_sim, inserted)
     assert not inserted.gripper_open
-    assert sim.task.in_lamp(sim.task.variation) and bulb in sim.task.grasped()
-    assert not sim.is_success()
-    assert sim.execute(moved(inserted, gripper_open=True)).success  # let go
+    assert physics_sim.task.in_lamp(physics_sim.task.variation) and bulb in physics_sim.task.grasped()
+    assert not physics_sim.is_success()
+    assert physics_sim.execute(moved(inserted, gripper_open=True)).success  # let go
 
 
-def test_knife_on_the_board_but_still_held_is_not_a_success(sim):
-    sim.reset_state("put_knife_on_chopping_board", 2, 0)
-    task = sim.task
-    run_demo(sim)
-    assert sim.is_success()
+def test_knife_on_the_board_but_still_held_is_not_a_success(physics_sim):
+    physics_sim.reset_state("put_knife_on_chopping_board", 2, 0)
+    task = physics_sim.task
+    run_demo(physics_sim)
+    assert physics_sim.is_success()
     task.grasped = lambda: {task.knife.per_scene_id}  # "then nothing grasped" is part of success
-    assert task.on_board() and not sim.is_success()
+    assert task.on_board() and not physics_sim.is_success()
 
 
-def test_knife_pulled_half_out_of_the_block_and_let_go_is_not_a_success(sim):
-    sim.reset_state("put_knife_on_chopping_board", 0, 0)
-    task = sim.task
+def test_knife_pulled_half_out_of_the_block_and_let_go_is_not_a_success(physics_sim):
+    physics_sim.reset_state("put_knife_on_chopping_board", 0, 0)
+    task = physics_sim.task
     keys = task.demonstration()
     for _ in range(2):
-        go(sim, next(keys))
-    grasp = np.asarray(sim.robot.tcp_pose().p)
-    go(sim, task.key(grasp + [0, 0, 0.05], sim.robot.tcp_pose().q, False))
-    go(sim, task.key(grasp + [0, 0, 0.05], sim.robot.tcp_pose().q, True))  # it drops back into the block
-    assert not task.on_board() and not sim.is_success()
+        go(physics_sim, next(keys))
+    grasp = np.asarray(physics_sim.robot.tcp_pose().p)
+    go(physics_sim, task.key(grasp + [0, 0, 0.05], physics_sim.robot.tcp_pose().q, False))
+    go(physics_sim, task.key(grasp + [0, 0, 0.05], physics_sim.robot.tcp_pose().q, True))  # it drops back into the block
+    assert not task.on_board() and not physics_sim.is_success()
 
 
-def test_book_carried_over_the_shelf_but_not_put_down_is_not_a_success(sim):
-    sim.reset_state("put_books_on_bookshelf", 1, 0)
-    task = sim.task
+def test_book_carried_over_the_shelf_but_not_put_down_is_not_a_success(physics_sim):
+    physics_sim.reset_state("put_books_on_bookshelf", 1, 0)
+    task = physics_sim.task
     keys = task.demonstration()
     for _ in range(4):  # picked up and carried over the top shelf, not yet put down
-        go(sim, next(keys))
+        go(physics_sim, next(keys))
     assert task.grasped() and not task.on_top_shelf(0)
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_plate_lifted_and_put_back_in_the_rack_is_not_a_success(sim):
-    sim.reset_state("take_plate_off_colored_dish_rack", 9, 0)
-    task = sim.task
+def test_plate_lifted_and_put_back_in_the_rack_is_not_a_success(physics_sim):
+    physics_sim.reset_state("take_plate_off_colored_dish_rack", 9, 0)
+    task = physics_sim.task
     actions = task.demonstration()
     approach, grasp, lift = next(actions), next(actions), next(actions)
     for action in (approach, grasp, lift):
-        go(sim, action)
+        go(physics_sim, action)
     assert task.grasped()
-    go(sim, moved(grasp, gripper_open=True))  # back down into the slot, let go
-    go(sim, approach)
+    go(physics_sim, moved(grasp, gripper_open=True))  # back down into the slot, let go
+    go(physics_sim, approach)
     assert not task.off_rack() and not task.grasped()
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_plate_starts_in_the_black_slot(sim):
+def test_plate_starts_in_the_black_slot(physics_sim):
     for seed in range(3):
-        sim.reset_state("take_plate_off_colored_dish_rack", seed, 0)
-        task = sim.task
+        physics_sim.reset_state("take_plate_off_colored_dish_rack", seed, 0)
+        task = physics_sim.task
         plate = np.asarray(task.plate.pose.p)
         black = np.asarray(task.pillars["black"].pose.p)
         others = [np.asarray(task.pillars[c].pose.p) for c in ("red", "purple")]
@@ -136,50 +136,50 @@ def test_plate_starts_in_the_black_slot(sim):
         assert all(np.linalg.norm(plate[:2] - o[:2]) > 0.04 for o in others)
 
 
-def test_stack_blocks_one_block_too_few_is_not_a_success(sim):
+def test_stack_blocks_one_block_too_few_is_not_a_success(physics_sim):
     for seed in range(20):
-        sim.reset_state("stack_blocks", seed, 0)
-        if sim.task.count >= 3:
+        physics_sim.reset_state("stack_blocks", seed, 0)
+        if physics_sim.task.count >= 3:
             break
-    task = sim.task
+    task = physics_sim.task
     count = task.count
     task.count = count - 1  # the demonstrator stacks one block too few
-    run_demo(sim)
+    run_demo(physics_sim)
     task.count = count
     assert task.stacked() == count - 1 and not task.grasped()
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_place_cups_one_cup_too_few_is_not_a_success(sim):
-    seed = next(s for s in range(50) if sim.reset_state("place_cups", s, 0) or sim.task.count >= 2)
-    sim.reset_state("place_cups", seed, 0)
-    asked = sim.task.count
-    sim.task.count = asked - 1  # let the demonstrator hang one cup too few
+def test_place_cups_one_cup_too_few_is_not_a_success(physics_sim):
+    seed = next(s for s in range(50) if physics_sim.reset_state("place_cups", s, 0) or physics_sim.task.count >= 2)
+    physics_sim.reset_state("place_cups", seed, 0)
+    asked = physics_sim.task.count
+    physics_sim.task.count = asked - 1  # let the demonstrator hang one cup too few
     try:
-        run_demo(sim)
+        run_demo(physics_sim)
     finally:
-        sim.task.count = asked
-    assert sum(sim.task.hanging(i) for i in range(3)) == asked - 1
-    assert not sim.is_success()
+        physics_sim.task.count = asked
+    assert sum(physics_sim.task.hanging(i) for i in range(3)) == asked - 1
+    assert not physics_sim.is_success()
 
 
-def test_basketball_dropped_beside_the_hoop_is_not_a_success(sim):
-    sim.reset_state("basketball_in_hoop", 0, 0)
-    task = sim.task
+def test_basketball_dropped_beside_the_hoop_is_not_a_success(physics_sim):
+    physics_sim.reset_state("basketball_in_hoop", 0, 0)
+    task = physics_sim.task
     side = task.frame.to_transformation_matrix()[:3, 1] * 0.14  # along the board, past the ring
     for i, action in enumerate(task.demonstration()):
-        sim.execute(moved(action, side) if i >= 3 else action)
+        physics_sim.execute(moved(action, side) if i >= 3 else action)
     ball = task._ring_local()
     assert ball[2] < 0 and not task.grasped()  # the ball fell to the table, outside the ring
-    assert not task.passed and not sim.is_success()
+    assert not task.passed and not physics_sim.is_success()
 
 
-def test_basketball_held_over_the_ring_is_not_a_success(sim):
-    sim.reset_state("basketball_in_hoop", 1, 0)
-    task = sim.task
-    release = hold_at_release(sim)  # over the ring, the ball still in the hand
+def test_basketball_held_over_the_ring_is_not_a_success(physics_sim):
+    physics_sim.reset_state("basketball_in_hoop", 1, 0)
+    task = physics_sim.task
+    release = hold_at_release(physics_sim)  # over the ring, the ball still in the hand
     local = task._ring_local()
     assert local[2] > 0 and np.linalg.norm(local[:2]) < 0.02
-    assert not sim.is_success()
-    go(sim, moved(release, (0.0, 0.0, 0.05), gripper_open=False))  # lifted away without going through
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
+    go(physics_sim, moved(release, (0.0, 0.0, 0.05), gripper_open=False))  # lifted away without going through
+    assert not physics_sim.is_success()

@@ -21,37 +21,37 @@ def spatula_held(task) -> bool:
     return task.spatula.per_scene_id in task.grasped()
 
 
-def test_scoop_demo_success_needs_every_part(sim):
-    sim.reset_state("scoop_with_spatula", 0, 0)
-    task = sim.task
+def test_scoop_demo_success_needs_every_part(physics_sim):
+    physics_sim.reset_state("scoop_with_spatula", 0, 0)
+    task = physics_sim.task
     for i, action in enumerate(task.demonstration()):
-        go(sim, action)
+        go(physics_sim, action)
         if i == 5:  # the blade is under the cube, still on the table: scooped but not lifted
             assert task.cube_on_blade() and spatula_held(task)
-            assert not sim.is_success()
+            assert not physics_sim.is_success()
     assert float(task.cube.pose.p[2]) - 0.02 > TABLE_TOP_Z + 0.05
     assert task.cube_on_blade() and spatula_held(task)
-    assert sim.is_success()
+    assert physics_sim.is_success()
 
 
-def test_scoop_cube_pushed_but_not_scooped_is_not_a_success(sim):
-    sim.reset_state("scoop_with_spatula", 1, 0)
-    task = sim.task
+def test_scoop_cube_pushed_but_not_scooped_is_not_a_success(physics_sim):
+    physics_sim.reset_state("scoop_with_spatula", 1, 0)
+    task = physics_sim.task
     for i, action in enumerate(task.demonstration()):
         if i == 5:  # the push stops 3 cm short: the blade is only under the cube's front edge
             back = -0.03 * task.push_dir
             action = moved(action, (back[0], back[1], 0.0))
-        go(sim, action)
+        go(physics_sim, action)
     assert spatula_held(task)
     assert float(task.spatula.pose.p[2]) > TABLE_TOP_Z + 0.08  # the spatula is up ...
     assert float(task.cube.pose.p[2]) < TABLE_TOP_Z + 0.02 + 0.05  # ... the cube slid off it
     assert not task.cube_on_blade()
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_scoop_spatula_lifted_without_the_cube_is_not_a_success(sim):
-    sim.reset_state("scoop_with_spatula", 2, 0)
-    task = sim.task
+def test_scoop_spatula_lifted_without_the_cube_is_not_a_success(physics_sim):
+    physics_sim.reset_state("scoop_with_spatula", 2, 0)
+    task = physics_sim.task
     start = None
     for i, action in enumerate(task.demonstration()):
         if i == 4:
@@ -60,123 +60,123 @@ def test_scoop_spatula_lifted_without_the_cube_is_not_a_success(sim):
             action = start
         if i == 6:
             action = moved(start, (0.0, 0.0, 0.10))
-        go(sim, action)
+        go(physics_sim, action)
     assert spatula_held(task)
     assert float(task.spatula.pose.p[2]) > TABLE_TOP_Z + 0.08  # the spatula is up ...
     assert float(task.cube.pose.p[2]) < TABLE_TOP_Z + 0.03  # ... the cube is not
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_scoop_cube_on_the_spatula_but_spatula_let_go_is_not_a_success(sim):
-    sim.reset_state("scoop_with_spatula", 3, 0)
-    task = sim.task
+def test_scoop_cube_on_the_spatula_but_spatula_let_go_is_not_a_success(physics_sim):
+    physics_sim.reset_state("scoop_with_spatula", 3, 0)
+    task = physics_sim.task
     last = None
     for action in task.demonstration():
-        go(sim, action)
+        go(physics_sim, action)
         last = action
-    assert sim.is_success()
-    sim.execute(moved(last, gripper_open=True))  # let go of the lifted spatula
+    assert physics_sim.is_success()
+    physics_sim.execute(moved(last, gripper_open=True))  # let go of the lifted spatula
     assert not spatula_held(task)
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_scoop_cube_on_the_blade_on_the_table_released_is_not_a_success(sim):
-    sim.reset_state("scoop_with_spatula", 4, 0)
-    task = sim.task
+def test_scoop_cube_on_the_blade_on_the_table_released_is_not_a_success(physics_sim):
+    physics_sim.reset_state("scoop_with_spatula", 4, 0)
+    task = physics_sim.task
     actions = task.demonstration()
     for _, action in zip(range(6), actions):  # up to the blade pushed under the cube
-        go(sim, action)
-    sim.execute(moved(action, gripper_open=True))  # instead of lifting: let go ...
-    sim.execute(moved(action, (0.0, 0.0, 0.10), gripper_open=True))  # ... and move the hand up
+        go(physics_sim, action)
+    physics_sim.execute(moved(action, gripper_open=True))  # instead of lifting: let go ...
+    physics_sim.execute(moved(action, (0.0, 0.0, 0.10), gripper_open=True))  # ... and move the hand up
     assert task.cube_on_blade() and not spatula_held(task)
     assert np.isclose(float(task.spatula.pose.p[2]), TABLE_TOP_Z, atol=0.01)
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
 # ------------------------------------------------------------------ beat_the_buzz
-def test_beat_the_buzz_a_step_ending_on_the_wire_fails_for_good(sim):
-    sim.reset_state("beat_the_buzz", 0, 0)
-    task = sim.task
+def test_beat_the_buzz_a_step_ending_on_the_wire_fails_for_good(physics_sim):
+    physics_sim.reset_state("beat_the_buzz", 0, 0)
+    task = physics_sim.task
     for i, action in enumerate(task.demonstration()):
         if i == 3:  # the carry along the wire, 3 cm too high: the ring's bottom bar drags on the wire
             # (3 cm too low jams the foot on the end rest once the grasp is rigid, simulator.grasp: attach)
             high = moved(action, (0.0, 0.0, 0.03))
-            sim.execute(high)
+            physics_sim.execute(high)
             assert task.touched
-            sim.execute(action)  # back on the right line, then finish the demonstration
+            physics_sim.execute(action)  # back on the right line, then finish the demonstration
             continue
-        sim.execute(action)
+        physics_sim.execute(action)
     assert task.at_end() and not task.grasped()
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_beat_the_buzz_a_touch_gone_by_the_end_of_the_step_is_not_a_failure(sim):
+def test_beat_the_buzz_a_touch_gone_by_the_end_of_the_step_is_not_a_failure(physics_sim):
     """RLBench reads the wire's fail sensor only after each step, as the end of each key action here."""
     import sapien
 
-    sim.reset_state("beat_the_buzz", 0, 0)
-    task = sim.task
+    physics_sim.reset_state("beat_the_buzz", 0, 0)
+    task = physics_sim.task
     for i, action in enumerate(task.demonstration()):
         if i == 3:  # the carry 3 cm too high, as a move inside a step: the ring drags on the wire ...
             high = moved(action, (0.0, 0.0, 0.03))
-            sim.controller.move_to(sapien.Pose(np.asarray(high.position), np.asarray(high.quat_wxyz)))
+            physics_sim.controller.move_to(sapien.Pose(np.asarray(high.position), np.asarray(high.quat_wxyz)))
             assert task.wand_touches_wire() and not task.touched
-            sim.execute(action)  # ... and the step ends back on the right line, clear of the wire
+            physics_sim.execute(action)  # ... and the step ends back on the right line, clear of the wire
             assert not task.touched
             continue
-        sim.execute(action)
-    assert sim.is_success()
+        physics_sim.execute(action)
+    assert physics_sim.is_success()
 
 
-def test_beat_the_buzz_wand_left_on_the_start_rest_is_not_a_success(sim):
-    sim.reset_state("beat_the_buzz", 2, 0)
-    actions = sim.task.demonstration()  # key poses depend on the state as it goes: run it lazily
+def test_beat_the_buzz_wand_left_on_the_start_rest_is_not_a_success(physics_sim):
+    physics_sim.reset_state("beat_the_buzz", 2, 0)
+    actions = physics_sim.task.demonstration()  # key poses depend on the state as it goes: run it lazily
     lifted = None
     for _, action in zip(range(3), actions):  # grasp, lift the ring onto the wire axis ...
-        sim.execute(action)
+        physics_sim.execute(action)
         lifted = action
-    sim.execute(moved(lifted, (0.0, 0.0, -0.01), gripper_open=True))  # ... and put it back
-    assert not sim.task.touched and not sim.task.grasped()
-    assert not sim.is_success()
+    physics_sim.execute(moved(lifted, (0.0, 0.0, -0.01), gripper_open=True))  # ... and put it back
+    assert not physics_sim.task.touched and not physics_sim.task.grasped()
+    assert not physics_sim.is_success()
 
 
 # ------------------------------------------------------------------ water_plants
-def test_water_plants_can_held_over_the_pot_untipped_is_not_a_success(sim):
-    sim.reset_state("water_plants", 0, 0)
-    task = sim.task
+def test_water_plants_can_held_over_the_pot_untipped_is_not_a_success(physics_sim):
+    physics_sim.reset_state("water_plants", 0, 0)
+    task = physics_sim.task
     for i, action in enumerate(task.demonstration()):
         if i == 4:  # the tipping: stay upright at the pouring position instead
             break
-        go(sim, action)
+        go(physics_sim, action)
     for _ in range(20):
-        sim.controller.step_frame()
+        physics_sim.controller.step_frame()
     assert not task.poured and task.drops_in_pot() == 0 and task.grasped()  # the tip is not at the pour point
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_water_plants_poured_beside_the_pot_is_not_a_success(sim):
-    sim.reset_state("water_plants", 1, 0)
-    task = sim.task
+def test_water_plants_poured_beside_the_pot_is_not_a_success(physics_sim):
+    physics_sim.reset_state("water_plants", 1, 0)
+    task = physics_sim.task
     for i, action in enumerate(task.demonstration()):
         # pour 15 cm towards the robot of where the demonstrator would: the water misses the pot
-        sim.execute(moved(action, (-0.15, 0.0, 0.0)) if i >= 3 else action)
+        physics_sim.execute(moved(action, (-0.15, 0.0, 0.0)) if i >= 3 else action)
     for _ in range(20):
-        sim.controller.step_frame()
+        physics_sim.controller.step_frame()
     assert not task.poured and task.drops_in_pot() == 0  # the tip never reached the pour point
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
-def test_water_plants_one_drop_outside_the_pot_is_not_a_success(sim):
+def test_water_plants_one_drop_outside_the_pot_is_not_a_success(physics_sim):
     """RLBench counts all of its drops in the pot's sensor."""
-    sim.reset_state("water_plants", 2, 0)
-    task = sim.task
+    physics_sim.reset_state("water_plants", 2, 0)
+    task = physics_sim.task
     for action in task.demonstration():
-        go(sim, action)
-    assert task.poured and task.drops_in_pot() == 5 and sim.is_success()
+        go(physics_sim, action)
+    assert task.poured and task.drops_in_pot() == 5 and physics_sim.is_success()
     pot = task.pot.pose.p
     task.drops[0].set_pose(sapien.Pose([float(pot[0]), float(pot[1]) - 0.12, TABLE_TOP_Z + 0.003]))  # on the table
     assert task.drops_in_pot() == 4
-    assert not sim.is_success()
+    assert not physics_sim.is_success()
 
 
 def drop_can_above_the_pot(sim, seed):
@@ -196,17 +196,17 @@ def drop_can_above_the_pot(sim, seed):
     return task
 
 
-def test_water_plants_upright_can_carried_through_the_pour_point_and_dropped_is_a_success_as_upstream(sim):
+def test_water_plants_upright_can_carried_through_the_pour_point_and_dropped_is_a_success_as_upstream(physics_sim):
     """RLBench spawns its drops when the spout's head first meets the pour point and requires
     neither tipping nor a grasp: here the upright can's tip passes the pour point on the way over
     the plant, the drops fall into the pot, and the can is let go of."""
-    task = drop_can_above_the_pot(sim, 6)
-    assert task.poured and task.drops_in_pot() == 5 and sim.is_success()
+    task = drop_can_above_the_pot(physics_sim, 6)
+    assert task.poured and task.drops_in_pot() == 5 and physics_sim.is_success()
 
 
-def test_water_plants_can_dropped_with_its_tip_off_the_pour_point_is_not_a_success(sim):
+def test_water_plants_can_dropped_with_its_tip_off_the_pour_point_is_not_a_success(physics_sim):
     """The can rests on the pot, its tip 14 cm off the pot's axis: no drops (upstream's earlier
     clause, the can itself in the pot's sensor, is not followed: docs/AGNOSTOS.md)."""
-    task = drop_can_above_the_pot(sim, 0)
+    task = drop_can_above_the_pot(physics_sim, 0)
     assert not task.poured and task.drops_in_pot() == 0
-    assert not sim.is_success()
+    assert not physics_sim.is_success()

@@ -59,19 +59,19 @@ WRONG_TARGETS = [
 
 
 @pytest.mark.parametrize(("task", "seed", "aim", "wrong_of", "reached"), WRONG_TARGETS, ids=[c[0] for c in WRONG_TARGETS])
-def test_the_demonstrator_aimed_at_another_target_is_not_a_success(sim, task, seed, aim, wrong_of, reached):
-    sim.reset_state(task, seed, 0)
-    real = getattr(sim.task, aim)
-    wrong = wrong_of(sim.task, real)
-    run_demo_aimed(sim, aim, wrong)
-    assert reached(sim.task, wrong, real)
-    assert not sim.is_success()
+def test_the_demonstrator_aimed_at_another_target_is_not_a_success(physics_sim, task, seed, aim, wrong_of, reached):
+    physics_sim.reset_state(task, seed, 0)
+    real = getattr(physics_sim.task, aim)
+    wrong = wrong_of(physics_sim.task, real)
+    run_demo_aimed(physics_sim, aim, wrong)
+    assert reached(physics_sim.task, wrong, real)
+    assert not physics_sim.is_success()
 
 
-def test_turning_the_right_oven_knob_does_not_turn_the_oven_on(sim):
-    sim.reset_state("turn_oven_on", 0, 0)
-    for action in sim.task.demonstration(index=1):  # the demonstrator, pointed at the right knob
-        go(sim, action)
-    turned = sim.task.turned()
+def test_turning_the_right_oven_knob_does_not_turn_the_oven_on(physics_sim):
+    physics_sim.reset_state("turn_oven_on", 0, 0)
+    for action in physics_sim.task.demonstration(index=1):  # the demonstrator, pointed at the right knob
+        go(physics_sim, action)
+    turned = physics_sim.task.turned()
     assert turned[1] > 1.6 and turned[0] < 0.1
-    assert not sim.is_success()
+    assert not physics_sim.is_success()

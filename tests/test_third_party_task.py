@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from plugin_install import install_beside
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.pip, pytest.mark.subprocess]
 
 BIN = Path(sys.executable).parent
 

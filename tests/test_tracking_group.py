@@ -95,7 +95,7 @@ def test_for_job_uses_the_config_and_the_hydra_overrides(tmp_path, monkeypatch):
     Tracker.for_job(cfg, tmp_path, config={}).finish()
     run = offline_run_record(tmp_path)
     assert (run.run_group, run.job_type, list(run.tags)) == ("ablation_k", "+experiment=ablation_k,policy.k=6", ["+experiment=ablation_k", "policy.k=6"])
-    assert run.display_name == "agnostos-nearest_demo-dynamics-k6"  # run_name, as before
+    assert run.display_name == "agnostos-nearest_demo-dynamics_xicm-k6"  # run_name: benchmark, llm, retriever, K
 
 
 def test_run_media_logs_the_plots_and_the_rows_videos(tmp_path, monkeypatch):

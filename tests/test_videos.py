@@ -142,6 +142,7 @@ def test_each_episode_transcript_holds_every_prompt_and_reply(sim, tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.subprocess
 def test_xicm_eval_records_videos_lists_them_and_logs_them_to_an_offline_wandb_group(tmp_path):
     from test_tracking_group import offline_run_record
 

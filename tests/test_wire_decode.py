@@ -12,6 +12,7 @@ from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
 from xicm.core.errors import EpisodeFailure
+from xicm.core.spaces import ControlSpec, key_pose_mode, layout
 from xicm.core.types import CameraFrame, KeyAction, Observation
 from xicm.plugins.policies.remote import RemotePolicy, RemotePolicyOptions
 from xicm.serving import wire
@@ -444,7 +445,10 @@ def test_policy_remote_fails_the_step_with_bad_reply_and_the_next_call_is_answer
     srv = PolicyServer(Scripted(), port=0).start()
     client = PolicyClient(server_uri("127.0.0.1", srv.port), timeout_s=10)
     client.connect()
-    policy = RemotePolicy(client, {**dataclasses.asdict(RemotePolicyOptions()), "action_space": "key_pose"})
+    # a spec of its own (no simulator here): key poses, and the two proprio fields the request sends
+    spec = ControlSpec(modes=(key_pose_mode(((-1, -1, 0), (1, 1, 2))),),
+                       state=(layout("joint_positions", range(7), [-3] * 7, [3] * 7), layout("gripper_width", "w", [0], [0.1])))
+    policy = RemotePolicy(client, {**dataclasses.asdict(RemotePolicyOptions()), "control_mode": "key_pose"}, spec)
     try:
         with pytest.raises(EpisodeFailure) as failure:
             policy.act(small_observation())

@@ -2,11 +2,16 @@
 
 reset(seed=s, options={"episode": e}) loads the benchmark's scene (s, e): the same scene
 xicm-eval evaluates as seed s, episode e (seed None: drawn from the env's generator; episode
-default 0). Observations: {"state": proprio} plus, for obs_mode "rgb", {"rgb": {camera: HxWx3}}
-(and "depth" for "rgbd"). The reward is 1.0 on the step that succeeds; terminated on success,
+default 0); its info names the scene (instruction, seed, episode, variation). Observations:
+{"state": proprio} plus, for obs_mode "rgb", {"rgb": {camera: HxWx3}} (and "depth" for
+"rgbd"). The reward is 1.0 on the step that succeeds; terminated on success,
 truncated after max_control_steps (the task's default unless given). A step the simulator
 refuses (unreachable, bad action) leaves the state as it was and says why in
 info["error_kind"] / info["error_message"].
+
+Any simulator plugin serves (`simulator=`): it is built with the options control_mode and render,
+cameras and image_size when something is rendered, and `simulator_options`; the spaces come
+from its control_spec() and image_sizes().
 """
 
 from __future__ import annotations
@@ -20,14 +25,8 @@ from gymnasium import spaces
 from xicm.core.errors import ConfigError
 
 OBS_MODES = ("state", "rgb", "rgbd")
-STATE_DIMS = {"joint_positions": 7, "gripper_width": 1, "tcp_pose": 7, "gripper_open": 1}
 SEED_RANGE = 2**31  # seeds drawn when reset gets none
 FAR = 5.0  # metres: the cameras' far plane (depth is 0 where nothing was hit)
-
-# per-step bounds of the action boxes (the simulator takes any finite value; these are what
-# random exploration and normalisation should assume): metres, radians
-EE_DELTA_BOUND = (0.05, 0.25)
-JOINT_DELTA_BOUND = 0.2
 
 
 class XicmEnv(gymnasium.Env):
@@ -55,14 +54,11 @@ class XicmEnv(gymnasium.Env):
         if variations not in ("zero", "sampled"):
             raise ConfigError(f"variations must be 'zero' or 'sampled', not {variations!r}")
         registry = get_registry()
-        options = {
-            "name": simulator,
-            "cameras": list(cameras),
-            "image_size": image_size if isinstance(image_size, (int, dict)) else list(image_size),
-            "control_mode": control_mode,
-            "render": obs_mode != "state" or render_mode is not None,
-            **(simulator_options or {}),
-        }
+        render = obs_mode != "state" or render_mode is not None
+        pictures = {"cameras": list(cameras), "image_size": image_size if isinstance(image_size, (int, dict)) else list(image_size)}
+        # a state-only env renders nothing: the simulator keeps its own cameras (whatever they are called)
+        options = {"name": simulator, **(pictures if render else {}), "control_mode": control_mode, "render": render,
+                   **(simulator_options or {})}
         check = registry.check_options("simulator", options).extra.get("check")
         if check is not None:
             check(options)
@@ -80,23 +76,15 @@ class XicmEnv(gymnasium.Env):
             raise ConfigError(f"task {task!r} declares no max_control_steps: pass max_control_steps=N")
         self.max_control_steps = int(budget)
         self.instruction = info.instruction  # variation 0's; reset sets the episode's own
-        self.action_space = _action_space(self.sim, control_mode)
+        self.control_spec = self.sim.control_spec()  # the simulator's layouts: the spaces' one source
+        self.action_space = _box(self.control_spec.step_mode)
         self.observation_space = self._observation_space()
         self._steps = 0
         self._frames: dict[str, Any] = {}
 
     # --- spaces -------------------------------------------------------------------------------
     def _observation_space(self) -> spaces.Dict:
-        lo_q, hi_q = self.sim.robot.qlimits[:, 0], self.sim.robot.qlimits[:, 1]
-        bounds = {  # joint limits, finger travel, 2 m around the base, a gripper flag
-            "joint_positions": (lo_q - 0.1, hi_q + 0.1),
-            "gripper_width": ([0.0], [0.1]),
-            "tcp_pose": ([-2.0] * 3 + [-1.0] * 4, [2.0] * 3 + [1.0] * 4),
-            "gripper_open": ([0.0], [1.0]),
-        }
-        state = spaces.Dict(
-            {k: spaces.Box(np.float32(lo), np.float32(hi), (STATE_DIMS[k],), np.float32) for k, (lo, hi) in bounds.items()}
-        )
+        state = spaces.Dict({f.name: _box(f) for f in self.control_spec.state})
         parts: dict[str, spaces.Space] = {"state": state}
         if self.obs_mode != "state":
             sizes = self.sim.image_sizes()
@@ -115,9 +103,11 @@ class XicmEnv(gymnasium.Env):
         if options:
             raise ConfigError(f"unknown reset option(s) {', '.join(sorted(options))}; reset takes 'episode'")
         self.sim.reset_state(self.task, scene_seed, episode)
-        self.instruction = self.sim.task.episode_instruction
+        self.instruction = self.sim.instruction()
         self._steps = 0
-        return self._observe(), {"instruction": self.instruction, "seed": scene_seed, "episode": episode, "success": False}
+        info = {"instruction": self.instruction, "seed": scene_seed, "episode": episode, "variation": self.sim.variation(),
+                "success": False}
+        return self._observe(), info
 
     def step(self, action):
         outcome = self.sim.step(np.asarray(action, dtype=np.float64))
@@ -133,7 +123,7 @@ class XicmEnv(gymnasium.Env):
         if self.render_mode != "rgb_array":
             return None
         if self.cameras[0] not in self._frames:
-            self._frames = self.sim.world.render([self.cameras[0]])
+            self._frames = self.sim.observe([self.cameras[0]]).cameras
         return self._frames[self.cameras[0]].rgb.copy()
 
     def close(self) -> None:
@@ -144,30 +134,17 @@ class XicmEnv(gymnasium.Env):
     # --- observations -------------------------------------------------------------------------
     def _observe(self) -> dict[str, Any]:
         proprio = self.sim.proprio()
-        obs: dict[str, Any] = {"state": {k: proprio[k].astype(np.float32) for k in STATE_DIMS}}
+        obs: dict[str, Any] = {"state": {f.name: proprio[f.name].astype(np.float32) for f in self.control_spec.state}}
         self._frames = {}
         if self.obs_mode != "state":
-            self._frames = self.sim.world.render(self.cameras)
+            self._frames = self.sim.observe(self.cameras).cameras
             obs["rgb"] = {c: self._frames[c].rgb for c in self.cameras}
         if self.obs_mode == "rgbd":
             obs["depth"] = {c: self._frames[c].depth[..., None] for c in self.cameras}
         return obs
 
 
-def _action_space(sim, mode: str) -> spaces.Box:
-    """Bounds of each control mode's vector (control_modes.py has the layouts)."""
-    lo_q, hi_q = sim.robot.qlimits[:, 0], sim.robot.qlimits[:, 1]
-    if mode == "ee_delta":
-        lin, ang = EE_DELTA_BOUND
-        high = np.array([lin] * 3 + [ang] * 3 + [1.0])
-        low = -high
-        low[-1] = 0.0
-    elif mode == "ee_pose":
-        (wlo, whi), base = (np.asarray(v) for v in sim.workspace), np.asarray(sim.robot.base_pose.p)
-        low = np.concatenate([wlo - base, -np.ones(4), [0.0]])
-        high = np.concatenate([whi - base, np.ones(4), [1.0]])
-    elif mode == "joint_pos":
-        low, high = np.append(lo_q, 0.0), np.append(hi_q, 1.0)
-    else:
-        low, high = np.array([-JOINT_DELTA_BOUND] * 7 + [0.0]), np.array([JOINT_DELTA_BOUND] * 7 + [1.0])
-    return spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+def _box(layout) -> spaces.Box:
+    """A float32 Box over a layout of the simulator's ControlSpec (a control mode or a proprio field)."""
+    low, high = layout.bounds()
+    return spaces.Box(low, high, (layout.width,), np.float32)

@@ -12,6 +12,11 @@ features is `(1 - text_weight) * visual cosine + text_weight * text cosine`:
 - text: the checkpoint's text encoder's feature of the instruction (all-MiniLM by default; a
   mean over real tokens for transformers encoders, so it really depends on the text).
 
+With `normalise: false` (X-ICM's feature, conf/encoder/dynamics_xicm.yaml) the visual part is
+returned as predicted, not L2-normalised, and there is no text part (`text_weight` must be 0):
+X-ICM ranks by the raw dot product of predicted final latents (its text term is constant, see
+docs/AGNOSTOS.md), which the similarity retriever's `score: dot` computes.
+
 Options:
     checkpoint: a folder written by xicm-train-dynamics (its `final/`, or the training
         out_dir, whose `final/` is then used, or any `checkpoints/step-N/`).
@@ -22,6 +27,7 @@ Options:
     text_weight: 0..1 (default 0.5).
     batch_size: frames per forward pass (default 64).
     device: torch device (default cpu).
+    normalise: L2-normalise and weight the parts (default true); false: the raw visual part alone.
 """
 
 from __future__ import annotations
@@ -52,6 +58,7 @@ class DynamicsEncoderOptions:
     text_weight: float = field(default=0.5, metadata=between(0, 1))
     batch_size: int = field(default=64, metadata=at_least(1))
     device: str = "cpu"
+    normalise: bool = True
 _models: dict[tuple[str, str], object] = {}
 _lock = threading.Lock()
 
@@ -92,8 +99,14 @@ class DynamicsEncoder(Encoder):
         text_weight: float = 0.5,
         batch_size: int = 64,
         device: str = "cpu",
+        normalise: bool = True,
     ):
         from xicm.plugins.dynamics.model import checkpoint_hash, read_meta
+
+        if not normalise and float(text_weight) != 0:
+            raise ConfigError(
+                f"encoder.normalise=false returns the raw visual feature alone, so encoder.text_weight must be 0 (got {text_weight:g})"
+            )
 
         self.folder = resolve_checkpoint(checkpoint)
         self.meta = read_meta(self.folder)
@@ -101,6 +114,7 @@ class DynamicsEncoder(Encoder):
         self.steps, self.seed = int(steps), int(seed)
         self.text_weight = float(text_weight)
         self.batch_size, self.device = int(batch_size), str(device)
+        self.normalise = bool(normalise)
         self._hash = checkpoint_hash(self.folder)
         self._scheduler = _scheduler_config(self.folder)  # read once: queries come one per episode
 
@@ -108,7 +122,8 @@ class DynamicsEncoder(Encoder):
         from xicm.plugins.dynamics.model import SAMPLER
 
         how = f"{self.mode}-{self.visual}-s{self.steps}-{SAMPLER}" if self.mode == "predicted_frame" else self.mode
-        return f"dynamics:{how}:seed{self.seed}:tw{self.text_weight:g}:{self._hash[:16]}"
+        scale = f"tw{self.text_weight:g}" if self.normalise else "raw"
+        return f"dynamics:{how}:seed{self.seed}:{scale}:{self._hash[:16]}"
 
     def encode(self, items: list[tuple[np.ndarray | None, str]]) -> np.ndarray:
         if any(rgb is None for rgb, _ in items):
@@ -121,7 +136,8 @@ class DynamicsEncoder(Encoder):
         # one text pass gives both the UNet's context and the text feature
         context, text = embed_unique(text_encoder(self.meta.get("text_encoder"), self.device), [str(t) for _, t in items])
         visual = self._visual([rgb for rgb, _ in items], context)
-
+        if not self.normalise:
+            return visual.reshape(len(visual), -1).astype(np.float32)
         return np.concatenate(
             [normalise_rows(visual) * np.sqrt(1.0 - self.text_weight), normalise_rows(text) * np.sqrt(self.text_weight)], axis=1
         ).astype(np.float32)

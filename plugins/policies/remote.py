@@ -4,7 +4,7 @@ Each call of `act` sends the mapped observation (camera pictures under the serve
 the state vector, the instruction as the prompt, and "xicm/episode" with task, seed, episode and
 the call's index, which openpi servers ignore) and executes the first `chunk_steps_to_execute`
 rows of the returned chunk. A server that serves an xicm policy (xicm-serve-policy) says at
-connect what it needs and sends: its action space, whether it wants the whole Observation, and
+connect what it needs and sends: its control mode, whether it wants the whole Observation, and
 whether it observes at all (a served oracle does not: nothing is rendered between calls).
 """
 
@@ -18,29 +18,37 @@ from typing import Dict, List, Optional
 from xicm.core.errors import ConfigError, EpisodeFailure
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Policy
-from xicm.core.schema import above, at_least, one_of
+from xicm.core.schema import above, at_least
+from xicm.core.spaces import GRIPPER_CLOSED, GRIPPER_OPEN, ControlSpec
 
 DEFAULT_IMAGES = MappingProxyType({"front": "observation/image"})  # camera -> request key (read-only)
 DEFAULT_STATE = ("joint_positions", "gripper_width")  # proprio fields, in order
-SPACES = ("auto", "key_pose", "key_joints", "ee_delta", "ee_pose", "joint_pos", "joint_delta")
 
 
 class RemotePolicy(Policy):
-    def __init__(self, client, options: dict):
-        from xicm.serving.actions import KEY_SPACES
+    """`spec`: the simulator's ControlSpec, the one source of the control modes (names, widths)
+    and proprio fields the server's chunks and the state vector are read in."""
 
+    def __init__(self, client, options: dict, spec: ControlSpec):
         self.client = client
         self.o = options
+        self.spec = spec
         meta = client.metadata.get("xicm", {}) if isinstance(client.metadata.get("xicm"), dict) else {}
-        space = options["action_space"]
+        modes = spec.mode_names()
+        space = options["control_mode"]
         if space == "auto":
-            space = meta.get("action_space")
-            if space not in SPACES[1:]:
+            space = meta.get("control_mode")
+            if space not in modes:
                 raise ConfigError(
-                    f"the server at {client.uri} does not say its action space; set policy.action_space to one of {', '.join(SPACES[1:])}"
+                    f"the server at {client.uri} does not say its control mode; set policy.control_mode to one of {', '.join(modes)}"
                 )
-        self.space = space
-        self.per_step = space not in KEY_SPACES
+        elif space not in modes:
+            raise ConfigError(f"policy.control_mode is '{space}'; the simulator's control modes are {', '.join(modes)}")
+        unknown = [f for f in options["state"] if f not in [p.name for p in spec.state]]
+        if options["state_key"] and unknown:
+            raise ConfigError(f"policy.state names {', '.join(unknown)}; the simulator's proprio fields are {', '.join(p.name for p in spec.state)}")
+        self.control_mode = space
+        self.per_step = spec.mode(space).per_step
         self.full_observation = meta.get("observation") == "full"
         self.observes = bool(meta.get("observes", True))
         self.episode: dict = {}
@@ -79,11 +87,11 @@ class RemotePolicy(Policy):
         failure = reply.get("xicm/failure")
         if isinstance(failure, dict):  # the served policy gave up (xicm-serve-policy)
             raise EpisodeFailure(str(failure.get("kind", "server_error")), str(failure.get("message", "")))
-        space = reply.get("xicm/action_space", self.space)
-        if space not in SPACES[1:]:
-            raise EpisodeFailure("bad_reply", f"the server's action space {space!r} is not one of {', '.join(SPACES[1:])}")
+        space = reply.get("xicm/control_mode", self.control_mode)
+        if space not in self.spec.mode_names():
+            raise EpisodeFailure("bad_reply", f"the server's control mode {space!r} is not one of {', '.join(self.spec.mode_names())}")
         try:
-            actions = to_actions(reply["actions"], space, o["gripper_open"], o["gripper_closed"])
+            actions = to_actions(reply["actions"], self.spec.mode(space), o["gripper_open"], o["gripper_closed"])
         except ValueError as exc:
             raise EpisodeFailure("bad_reply", str(exc)) from exc
         keep = o["chunk_steps_to_execute"]
@@ -105,7 +113,7 @@ class RemotePolicy(Policy):
             return list(pool.map(one, zip(peers, observations)))
 
     def run_metadata(self) -> dict:
-        return {"server": self.client.uri, "server_metadata": _jsonable(self.client.metadata), "action_space": self.space}
+        return {"server": self.client.uri, "server_metadata": _jsonable(self.client.metadata), "control_mode": self.control_mode}
 
     def record(self) -> dict:
         return dict(self.last_record)
@@ -124,8 +132,8 @@ class RemotePolicyOptions:
     host: str = "127.0.0.1"  # or a ws:// / wss:// URI
     port: Optional[int] = field(default=8000, metadata=at_least(1))
     timeout_s: float = field(default=30.0, metadata=above(0))  # per request, and for connecting
-    api_key: Optional[str] = None
-    action_space: str = field(default="auto", metadata=one_of(*SPACES))
+    api_key_env: Optional[str] = None  # the NAME of the environment variable holding the server's key
+    control_mode: str = "auto"  # auto, or one of the simulator's control modes (checked when built)
     chunk_steps_to_execute: Optional[int] = field(default=None, metadata=at_least(1))  # null: the whole chunk
     # camera -> request key; null: {front: observation/image}. Null in the YAML so that a mapping
     # given on the command line replaces it whole (Hydra merges into an existing mapping)
@@ -134,8 +142,8 @@ class RemotePolicyOptions:
     state_key: Optional[str] = "observation/state"
     state: List[str] = field(default_factory=lambda: list(DEFAULT_STATE))  # proprio fields, in order
     prompt_key: Optional[str] = "prompt"
-    gripper_open: float = 1.0  # the server's value for an open gripper
-    gripper_closed: float = 0.0  # ... and for a closed one
+    gripper_open: float = GRIPPER_OPEN  # the server's value for an open gripper
+    gripper_closed: float = GRIPPER_CLOSED  # ... and for a closed one
 
 
 def create_remote_policy(
@@ -143,40 +151,59 @@ def create_remote_policy(
     host: str = "127.0.0.1",
     port: int | None = 8000,
     timeout_s: float = 30.0,
-    api_key: str | None = None,
-    action_space: str = "auto",
+    api_key_env: str | None = None,
+    control_mode: str = "auto",
     chunk_steps_to_execute: int | None = None,
     images: Mapping[str, str] | None = None,
     image_size: int | None = None,
     state_key: str | None = "observation/state",
     state: Sequence[str] = DEFAULT_STATE,
     prompt_key: str | None = "prompt",
-    gripper_open: float = 1.0,
-    gripper_closed: float = 0.0,
+    gripper_open: float = GRIPPER_OPEN,
+    gripper_closed: float = GRIPPER_CLOSED,
 ) -> RemotePolicy:
     from xicm.serving.client import PolicyClient, ServerError, server_uri
+    from xicm.serving.keys import KeyNotSet, key_from_env
 
     options = dict(
-        host=host, port=port, timeout_s=timeout_s, api_key=api_key, action_space=action_space,
+        host=host, port=port, timeout_s=timeout_s, api_key_env=api_key_env, control_mode=control_mode,
         chunk_steps_to_execute=chunk_steps_to_execute, images=dict(images or DEFAULT_IMAGES),
         image_size=image_size, state_key=state_key, state=list(state),
         prompt_key=prompt_key, gripper_open=gripper_open, gripper_closed=gripper_closed,
     )
-    client = PolicyClient(server_uri(options["host"], options["port"]), options["timeout_s"], options["api_key"])
+    try:
+        api_key = key_from_env(api_key_env, "policy.api_key_env")  # held by the client only, never in options
+    except KeyNotSet as exc:
+        raise ConfigError(str(exc)) from None
+    client = PolicyClient(server_uri(options["host"], options["port"]), options["timeout_s"], api_key)
     try:
         client.connect()
     except ServerError as exc:
-        raise ConfigError(f"policy.host/port: {exc}") from exc
-    policy = RemotePolicy(client, options)
-    mode = context.cfg.simulator.get("control_mode")
-    if policy.per_step and mode is not None and policy.space != mode:
+        raise ConfigError(_refusal(exc, api_key_env) if exc.status in (401, 403) else f"policy.host/port: {exc}") from exc
+    spec = context.simulator.control_spec()
+    try:
+        policy = RemotePolicy(client, options, spec)
+    except ConfigError:
+        client.close()
+        raise
+    if policy.per_step and policy.control_mode != spec.control_mode:
+        client.close()
         raise ConfigError(
-            f"policy.action_space is {policy.space} but simulator.control_mode is {mode}; per-step actions are stepped in the simulator's control mode"
+            f"policy.control_mode is {policy.control_mode} but simulator.control_mode is {spec.control_mode}; per-step actions are stepped in the simulator's control mode"
         )
     return policy
 
 
+def _refusal(exc, api_key_env: str | None) -> str:
+    """The one sentence for a server that refused our key (or wanted one)."""
+    if not api_key_env:
+        return f"{exc}: it needs a key; export it in an environment variable and set policy.api_key_env to that variable's name"
+    return f"{exc}: check the key in ${api_key_env} (policy.api_key_env)"
+
+
 def check_remote_config(cfg, registry) -> None:
+    if "@" in str(cfg.policy.host).split("//", 1)[-1].split("/", 1)[0]:
+        raise ConfigError("policy.host must not hold credentials (user:password@): put the key in an environment variable named by policy.api_key_env")
     if float(cfg.policy.gripper_open) == float(cfg.policy.gripper_closed):
         raise ConfigError("policy.gripper_open and policy.gripper_closed must differ")
 

@@ -3,7 +3,7 @@ features (plugins/encoders/dynamics.py). The ranking and the on-disk pool-featur
 the similarity retriever's; pool features are keyed by the checkpoint's hash, the encoder's
 options and the pool's demos and first frames, so every evaluation job reuses them.
 
-Options: as the similarity retriever (cache_dir, exclude_same_task).
+Options: as the similarity retriever (cache_dir, exclude_same_task, score).
 """
 
 from __future__ import annotations

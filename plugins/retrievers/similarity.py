@@ -6,14 +6,16 @@ Features come from the configured encoder: the query's is
 and cached on disk as an .npy file keyed by `encoder.cache_key()` and a hash of the pool's
 demo ids and instructions (and first frames when the encoder's `uses_images` is true), written
 atomically (a temporary file, then a rename).
-Scores are cosine similarities; equal scores (to 1e-6) are ordered by demo id, so the
-ranking is deterministic.
+Scores are cosine similarities (`score: cosine`), or raw dot products of the features as the
+encoder gives them (`score: dot`, X-ICM's ranking); equal scores (to 1e-6) are ordered by demo
+id, so the ranking is deterministic.
 
 Options:
     cache_dir: folder of the feature cache; default $XICM_CACHE/features, or
         ~/.cache/xicm/features when XICM_CACHE is not set.
     exclude_same_task: leave out demos of the query's own task (leave-one-task-out
         studies), default False.
+    score: cosine | dot (default cosine).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
 
@@ -31,10 +33,12 @@ from xicm.core.atomic import write_atomic
 from xicm.core.errors import ConfigError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Encoder, Retriever
+from xicm.core.schema import one_of
 from xicm.core.types import Demo, Query
 from xicm.plugins.retrievers.random import candidates
 
 TIE_DECIMALS = 6  # scores equal to this many decimals count as ties (broken by demo id)
+SCORES = ("cosine", "dot")
 
 
 def default_cache_dir() -> Path:
@@ -69,15 +73,23 @@ def normalise_rows(x: np.ndarray) -> np.ndarray:
 class SimilarityOptions:
     cache_dir: Optional[str] = None  # None: $XICM_CACHE/features
     exclude_same_task: bool = False
+    score: str = field(default="cosine", metadata=one_of(*SCORES))
 
 
 class SimilarityRetriever(Retriever):
-    def __init__(self, encoder: Encoder | None = None, cache_dir: str | None = None, exclude_same_task: bool = False):
+    def __init__(
+        self,
+        encoder: Encoder | None = None,
+        cache_dir: str | None = None,
+        exclude_same_task: bool = False,
+        score: str = "cosine",
+    ):
         if encoder is None:
             raise ConfigError("the similarity retriever needs an encoder; set `encoder=` (e.g. encoder=minilm)")
         self.encoder = encoder
         self.cache_dir = Path(cache_dir).expanduser() if cache_dir else default_cache_dir()
         self.exclude_same_task = bool(exclude_same_task)
+        self.score = str(score)
         self._rows: dict[str, int] = {}
         self._features = np.zeros((0, 0), np.float32)
         self.cache_path: Path | None = None
@@ -86,7 +98,7 @@ class SimilarityRetriever(Retriever):
     def prepare(self, pool: list[Demo]) -> None:
         if not pool:
             raise ValueError("the demonstration pool is empty; collect demonstrations first (xicm-collect)")
-        key = self.encoder.cache_key()
+        key = self.encoder.cache_key() + ("" if self.score == "cosine" else f":{self.score}")
         slug = re.sub(r"[^A-Za-z0-9._-]+", "_", key)[:60]
         fingerprint = pool_fingerprint(key, pool, with_images=getattr(self.encoder, "uses_images", False))
         path = self.cache_dir / f"{slug}-{fingerprint[:24]}.npy"
@@ -100,7 +112,7 @@ class SimilarityRetriever(Retriever):
                 feats = None
         self.cache_hit = feats is not None
         if feats is None:
-            feats = normalise_rows(self.encoder.encode([(d.first_rgb, d.instruction) for d in pool]))
+            feats = self._rows_of(self.encoder.encode([(d.first_rgb, d.instruction) for d in pool]))
             if len(feats) != len(pool):
                 raise RuntimeError(f"encoder returned {len(feats)} features for {len(pool)} demos")
             write_atomic(path, lambda f: np.save(f, feats))
@@ -108,9 +120,16 @@ class SimilarityRetriever(Retriever):
         self._features = np.asarray(feats, np.float32)
         self._rows = {d.demo_id: i for i, d in enumerate(pool)}
 
+    def _rows_of(self, features: np.ndarray) -> np.ndarray:
+        """Features as scored: unit rows for cosine, as encoded (flattened, float32) for dot."""
+        if self.score == "cosine":
+            return normalise_rows(features)
+        x = np.asarray(features, dtype=np.float32)
+        return x.reshape(len(x), -1) if x.ndim > 1 else x[None]
+
     def scores(self, query: Query, demos: list[Demo]) -> np.ndarray:
-        """Cosine similarity of the query to each demo (demos must have been prepared)."""
-        q = normalise_rows(self.encoder.encode([(query.front_rgb, query.instruction)]))[0]
+        """Cosine similarity (or dot product) of the query to each demo (demos must have been prepared)."""
+        q = self._rows_of(self.encoder.encode([(query.front_rgb, query.instruction)]))[0]
         rows = np.fromiter((self._rows[d.demo_id] for d in demos), dtype=np.int64, count=len(demos))
         return self._features[rows] @ q
 

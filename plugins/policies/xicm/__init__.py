@@ -21,6 +21,8 @@ class XicmPolicyOptions:
     pool_tasks: List[str] = MISSING
     rerank: bool = False  # re-select the demos with the current observation on each LLM call (X-ICM does)
     partial_replies: bool = False  # run a reply's valid actions up to its first invalid one, then end (X-ICM does)
+    #: read replies as X-ICM's agent does: an unreadable reply becomes its default actions, not a parse_error
+    parse_fallback: bool = False
 
 
 def create_xicm_policy(
@@ -31,6 +33,7 @@ def create_xicm_policy(
     context: PolicyContext,
     rerank: bool = False,
     partial_replies: bool = False,
+    parse_fallback: bool = False,
 ):
     from . import parts
     from .policy import XICMPolicy
@@ -51,6 +54,7 @@ def create_xicm_policy(
         pool_path=str(pool),
         rerank=bool(rerank),
         partial_replies=bool(partial_replies),
+        parse_fallback=bool(parse_fallback),
     )
 
 

@@ -31,6 +31,7 @@ class XICMPolicy(Policy):
     pool_path: str | None = None  # where the pool came from (for run.json)
     rerank: bool = False  # re-select demos on every LLM call, not only the first
     partial_replies: bool = False  # keep a reply's actions before its first invalid one
+    parse_fallback: bool = False  # read replies as X-ICM does, with its default actions (parsing.parse_actions_xicm)
 
     def __post_init__(self) -> None:
         self._start("", np.random.default_rng(0))
@@ -54,9 +55,9 @@ class XICMPolicy(Policy):
             raise EpisodeFailure("max_llm_calls", f"no success after {self.llm_calls} LLM calls")
         with self._stage("detect", "detector_error"):
             objects = self.detector.detect(obs, list(obs.object_names))
-        front = obs.cameras.get("front")
+        camera = obs.first_camera()  # the one the pool's pictures come from
         missing = tuple(n for n in obs.object_names if n not in objects)
-        query = Query(self.task, obs.instruction, objects, None if front is None else front.rgb, missing)
+        query = Query(self.task, obs.instruction, objects, None if camera is None else obs.cameras[camera].rgb, missing)
         if missing:
             seen = self._record["extra"].setdefault("not_detected", [])
             seen.extend(n for n in missing if n not in seen)
@@ -80,6 +81,12 @@ class XICMPolicy(Policy):
         call["reply"] = reply
         self.llm_calls += 1
         self._record["responses"].append(reply)
+        if self.parse_fallback:
+            with self._stage("parse", "parse_error"):
+                actions, fallback = parsing.parse_actions_xicm(reply, self.workspace)
+            if fallback is not None:
+                self._record["extra"].setdefault("parse_fallbacks", []).append(f"reply {self.llm_calls}: {fallback}")
+            return actions
         with self._stage("parse", "parse_error"):
             actions = parsing.parse_actions(reply, self.workspace, partial=self.partial_replies)
         if isinstance(actions, parsing.ParseError):

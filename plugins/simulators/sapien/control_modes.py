@@ -1,5 +1,5 @@
 """The per-step action spaces of `SapienSimulator.step` and their maths, shared by the simulator,
-the Gymnasium env and the dataset exporter. Layouts (float vectors, gripper last: 1.0 open,
+the Gymnasium env and the dataset exporter (names and bounds: spec.py). Layouts (float vectors, gripper last: 1.0 open,
 0.0 closed, threshold 0.5); poses are in the robot base frame, quaternions w, x, y, z:
 
     ee_delta    (7)  dx, dy, dz (m), droll, dpitch, dyaw (rad, extrinsic x-y-z about the base
@@ -16,13 +16,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from xicm.core.spaces import GRIPPER_THRESHOLD
+
 from .options import CONTROL_MODES
+from .spec import STEP_MODES
 
 if TYPE_CHECKING:
     from xicm.core.types import ControlRecording
 
-ACTION_DIMS = {"ee_delta": 7, "ee_pose": 8, "joint_pos": 8, "joint_delta": 8}
-assert tuple(ACTION_DIMS) == CONTROL_MODES
+ACTION_DIMS = {mode: len(names) for mode, (names, _doc) in STEP_MODES.items()}
 
 
 def check_mode(mode: str) -> str:
@@ -47,7 +49,7 @@ def parse(mode: str, action) -> tuple[np.ndarray | None, str | None]:
 
 
 def gripper_open(values: np.ndarray) -> bool:
-    return bool(values[-1] >= 0.5)
+    return bool(values[-1] >= GRIPPER_THRESHOLD)
 
 
 # ------------------------------------------------------------------ poses

@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 import sapien
 
-from .robot import ARM_JOINTS, HOME_QPOS, Panda
+from .robot import ARM_JOINTS, Panda
 
 
 class Unreachable(Exception):
@@ -192,7 +192,7 @@ class Controller:
         if not hasattr(self, "_seed_cache"):
             lo, hi = self.robot.qlimits[:, 0], self.robot.qlimits[:, 1]
             rng = np.random.default_rng(0)  # fixed: the same pose always gets the same answer
-            seeds = [HOME_QPOS.copy()]
+            seeds = [self.robot.home_qpos.copy()]
             for q2, q4, q6 in ((0.2, -2.0, 2.6), (0.5, -1.5, 2.8), (0.0, -2.5, 2.0), (0.8, -1.0, 2.4)):
                 for q7 in (np.pi / 4, -np.pi / 4, 3 * np.pi / 4):
                     seeds.append(np.array([0.0, q2, 0.0, q4, 0.0, q6, q7]))

@@ -5,14 +5,18 @@ from typing import Any, List
 
 from xicm.core.schema import above, one_of, rule
 
+from .spec import STEP_MODES
+
 GRASP_MODES = ("attach", "friction")
 SUCCESS_CHECKS = ("per_action", "per_frame")
 #: ours: each task's own ranges (every scene solvable by its demonstrator); rlbench: RLBench's
 #: ranges, each scene redrawn until the task's scripted solution solves it (SapienSimulator.reset_state)
 SCENE_RANGES = ("ours", "rlbench")
+#: where the Panda stands and how it starts (scene.py ROBOT_PLACEMENTS): ours, or RLBench's as recorded
+ROBOTS = ("ours", "rlbench")
 CAMERA_NAMES = ("front", "left_shoulder", "right_shoulder", "overhead", "wrist")
-#: per-step action spaces of `step(action)` (control_modes.py has their layouts)
-CONTROL_MODES = ("ee_delta", "ee_pose", "joint_pos", "joint_delta")
+#: per-step control modes of `step(action)` (spec.py declares their columns, control_modes.py their maths)
+CONTROL_MODES = tuple(STEP_MODES)
 
 #: Vulkan guarantees 2D images up to 4096 pixels a side on every device (maxImageDimension2D);
 #: measured on lavapipe: one 4096 camera renders (79 s, 6.2 GB), 16385 fails ("cannot create image").
@@ -83,6 +87,10 @@ class SapienOptions:
     #: per_frame: success read after every control frame, the move ends when it holds (RLBench)
     success_check: str = field(default="per_action", metadata=one_of(*SUCCESS_CHECKS))
     scenes: str = field(default="ours", metadata=one_of(*SCENE_RANGES))
+    robot: str = field(default="ours", metadata=one_of(*ROBOTS))
+    #: success_check: per_frame: a move that met success still runs its gripper command, then success
+    #: is read once, as X-ICM's RLBench does (false: the command is skipped and success stands)
+    gripper_after_success: bool = False
     #: scenes: rlbench: draws of one episode's scene before it counts as unsolvable
     max_scene_draws: int = field(default=20, metadata=above(0))
 

@@ -11,8 +11,6 @@ ASSET_DIR = Path(__file__).parent / "assets" / "panda"
 URDF = ASSET_DIR / "panda_v2.urdf"
 
 ARM_JOINTS = 7
-#: joint positions of the start pose: TCP at about (0.07, 0.00, 1.25), gripper pointing down.
-HOME_QPOS = np.array([0.0, -0.43, 0.0, -2.0702, 0.0, 1.6401, np.pi / 4])
 FINGER_OPEN = 0.04  # metres per finger (the joint limit)
 # drive targets beyond the joint limits: the fingers get there fast and a grasp keeps squeezing
 FINGER_OPEN_TARGET = 0.05
@@ -29,9 +27,10 @@ FINGER_STIFFNESS, FINGER_DAMPING, FINGER_FORCE_LIMIT = 2000.0, 100.0, 60.0
 
 
 class Panda:
-    """A fixed-base Panda standing on the table at `base_pose`."""
+    """A fixed-base Panda standing on the table at `base_pose`, starting at `home_qpos`."""
 
-    def __init__(self, scene: sapien.Scene, base_pose: sapien.Pose):
+    def __init__(self, scene: sapien.Scene, base_pose: sapien.Pose, home_qpos):
+        self.home_qpos = np.array(home_qpos, dtype=float)
         loader = scene.create_urdf_loader()
         loader.fix_root_link = True
         for name in FINGER_LINKS:
@@ -62,7 +61,7 @@ class Panda:
 
     # --- state -----------------------------------------------------------------------------
     def reset(self, arm_qpos: np.ndarray | None = None) -> None:
-        arm = HOME_QPOS if arm_qpos is None else np.asarray(arm_qpos, dtype=float)
+        arm = self.home_qpos if arm_qpos is None else np.asarray(arm_qpos, dtype=float)
         qpos = np.concatenate([arm, [FINGER_OPEN, FINGER_OPEN]])
         self.articulation.set_qpos(qpos)
         self.articulation.set_qvel(np.zeros_like(qpos))

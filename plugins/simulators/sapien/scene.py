@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import sapien
 
@@ -12,7 +14,31 @@ TABLE_TOP_Z = 0.75
 #: the table: x from -0.55 to 0.85, y from -0.7 to 0.7, top at 0.75 m
 TABLE_HALF = (0.70, 0.70, TABLE_TOP_Z / 2)
 TABLE_CENTRE = (0.15, 0.0, TABLE_TOP_Z / 2)
-ROBOT_BASE = (-0.35, 0.0, TABLE_TOP_Z)
+
+
+@dataclass(frozen=True)
+class RobotPlacement:
+    """Where the Panda's base (panda_link0) stands, and its arm's start joints."""
+
+    position: tuple[float, float, float]
+    quat_wxyz: tuple[float, float, float, float]
+    home_qpos: tuple[float, ...]
+
+
+#: simulator.robot. ours: the base 35 cm behind the grid's x = 0; start TCP at about
+#: (0.07, 0.00, 1.25), pointing down. rlbench: RLBench's Panda as RoboVerse recorded it inside
+#: RLBench (metasim-core 0.1.0, close_box franka_v2.pkl.gz: the same base pose and start joints in
+#: all 100 episodes, z counted from the table top); start TCP at about (0.29, -0.01, 1.45). The
+#: frame was checked by posing our Panda at the recorded joints: its fingers meet the recorded lid
+#: while the lid closes (docs/AGNOSTOS.md, "Robot placement").
+ROBOT_PLACEMENTS = {
+    "ours": RobotPlacement((-0.35, 0.0, TABLE_TOP_Z), (1.0, 0.0, 0.0, 0.0), (0.0, -0.43, 0.0, -2.0702, 0.0, 1.6401, np.pi / 4)),
+    "rlbench": RobotPlacement(
+        (-0.267651, -0.0053, TABLE_TOP_Z + 0.000318),
+        (0.999606729, 0.000221563, 0.002819736, -0.006197862),
+        (0.0, 0.1752, 0.0, -0.8731, 0.0, 1.2216, 0.7854),
+    ),
+}
 #: (low, high) corner of the box the 100^3 text grid covers (the upstream AGNOSTOS grid)
 WORKSPACE = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 
@@ -28,13 +54,15 @@ class World:
         render: bool = True,
         depth: bool = True,
         segmentation: bool = True,
+        robot: str = "ours",
     ):
         self.scene = sapien.Scene()
         self.scene.set_timestep(1.0 / physics_hz)
         self._build_static()
         if render:
             self._build_lights()
-        self.robot = Panda(self.scene, sapien.Pose(ROBOT_BASE))
+        placement = ROBOT_PLACEMENTS[robot]
+        self.robot = Panda(self.scene, sapien.Pose(list(placement.position), list(placement.quat_wxyz)), placement.home_qpos)
         self.cameras = (
             Cameras(
                 self.scene, list(cameras), image_size, {l.name: l for l in self.robot.links}, depth=depth, segmentation=segmentation

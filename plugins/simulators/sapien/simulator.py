@@ -10,6 +10,7 @@ import sapien
 from xicm.core.errors import EpisodeFailure
 from xicm.core.interfaces import Simulator
 from xicm.core.seeding import episode_rng
+from xicm.core.spaces import ControlSpec
 from xicm.core.types import (
     ControlRecording,
     JointAction,
@@ -20,12 +21,12 @@ from xicm.core.types import (
     Trajectory,
 )
 
-from . import control_modes
+from . import control_modes, spec
 from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
 from .grasp import GraspAttacher
 from .objects import ObjectSet
-from .options import CONTROL_MODES, GRASP_MODES, SCENE_RANGES, SUCCESS_CHECKS, frames_per_step, sizes_per_camera
+from .options import GRASP_MODES, SCENE_RANGES, SUCCESS_CHECKS, frames_per_step, sizes_per_camera
 from .robot import ARM_JOINTS
 from .scene import TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
@@ -54,6 +55,10 @@ class SapienSimulator(Simulator):
         success_check: 'per_action' (the task's success is read after each key action or step) or
             'per_frame' (after every control frame, as RLBench does during a move: the move ends
             and the episode succeeds the moment it holds; a task's ordered conditions latch).
+        scenes, max_scene_draws: 'ours' or 'rlbench' position/yaw ranges (options.py).
+        robot: 'ours' or 'rlbench': where the Panda stands and its start joints (scene.py ROBOT_PLACEMENTS).
+        gripper_after_success: with per_frame, a key action whose move met success still runs its
+            gripper command, then success is read once (X-ICM's RLBench); false skips the command.
         tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
             those registered for simulator "sapien", handed over by Registry.create_simulator.
     """
@@ -78,6 +83,8 @@ class SapienSimulator(Simulator):
         success_check: str = "per_action",
         scenes: str = "ours",
         max_scene_draws: int = 20,
+        robot: str = "ours",
+        gripper_after_success: bool = False,
         *,
         tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
@@ -89,6 +96,7 @@ class SapienSimulator(Simulator):
             render=bool(render),
             depth=bool(depth),
             segmentation=bool(segmentation),
+            robot=str(robot),
         )
         self.robot = self.world.robot
         self.objects = ObjectSet(self.world.scene)
@@ -109,6 +117,7 @@ class SapienSimulator(Simulator):
             why = f"simulator option success_check is '{success_check}'; allowed: {', '.join(SUCCESS_CHECKS)}"
             raise ValueError(why)
         self.per_frame_success = success_check == "per_frame"
+        self.gripper_after_success = bool(gripper_after_success)
         if grasp == "attach":
             self.world.grasp = self.controller.grasp = GraspAttacher(self.world.scene, self.robot)
         if scenes not in SCENE_RANGES:
@@ -217,8 +226,16 @@ class SapienSimulator(Simulator):
             proprio=self.proprio(),
         )
 
+    def instruction(self) -> str:
+        self._require_task()
+        return self.task.episode_instruction
+
+    def variation(self) -> int:
+        self._require_task()
+        return int(self.task.variation)
+
     def proprio(self) -> dict[str, np.ndarray]:
-        """joint_positions (7), gripper_width (1, m), tcp_pose (7, base frame), gripper_open (1)."""
+        """joint_positions (7), gripper_width (1, m), tcp_pose (7, base frame), gripper_open (1): spec.STATE."""
         self._require_task()
         return {
             "joint_positions": self.robot.arm_qpos(),
@@ -275,8 +292,7 @@ class SapienSimulator(Simulator):
                 self.controller.move_to(target)
             except Unreachable as exc:
                 return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=str(exc))
-            if not self.controller.halted:
-                self.controller.set_gripper(bool(action.gripper_open))
+            self._gripper(bool(action.gripper_open))
             return StepOutcome(ok=True, success=self.is_success())
         except Exception as exc:  # noqa: BLE001 - a simulator failure must not crash the run
             return StepOutcome(False, False, error_kind="sim_error", error_message=f"{type(exc).__name__}: {exc}")
@@ -293,13 +309,28 @@ class SapienSimulator(Simulator):
             why = f"joint target outside the Panda's limits at joint(s) {bad}"
             return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=why)
         self.controller.move_joints(q)
-        if not self.controller.halted:
-            self.controller.set_gripper(bool(action.gripper_open))
+        self._gripper(bool(action.gripper_open))
         return StepOutcome(ok=True, success=self.is_success())
 
+    def _gripper(self, open_: bool) -> None:
+        """The key action's gripper command, after its move. A move that met success part-way
+        (success_check: per_frame) skips it; with gripper_after_success, as X-ICM's RLBench, the
+        gripper still acts, unwatched, and success is then read once (is_success)."""
+        if not self.controller.halted:
+            self.controller.set_gripper(open_)
+            return
+        if not self.gripper_after_success:
+            return
+        watch, self.controller.success_check = self.controller.success_check, None
+        self.controller.halted = False
+        try:
+            self.controller.set_gripper(open_)
+        finally:
+            self.controller.success_check = watch
+
     # --- per-step control -------------------------------------------------------------------
-    def control_modes(self) -> tuple[str, ...]:
-        return CONTROL_MODES
+    def control_spec(self) -> ControlSpec:
+        return spec.control_spec(self.robot.qlimits, self.robot.base_pose.p, self.workspace, self.control_mode, self.control_hz)
 
     def step(self, action) -> StepOutcome:
         """One control period (frame_hz / control_hz frames) towards `action` in control_mode."""
@@ -398,7 +429,7 @@ class SapienSimulator(Simulator):
             self.set_frame_callback(None)
         joints = np.array(rows["joint"])
         tcp = np.array([self.robot.in_base(self.robot.tcp_pose_at(q)) for q in joints])
-        return ControlRecording(
+        recording = ControlRecording(
             task=self.task_name,
             seed=self.seed,
             episode=self.episode,
@@ -414,6 +445,8 @@ class SapienSimulator(Simulator):
             success=error is None and self.is_success(),
             error=error,
         )
+        recording.actions = {mode: control_modes.actions(recording, mode) for mode in control_modes.ACTION_DIMS}
+        return recording
 
     def set_frame_callback(self, callback) -> bool:
         """Call `callback()` after every frame (after the task's own frame hook); for

@@ -23,7 +23,7 @@ import numpy as np
 import sapien
 
 from ...objects import add_box, add_cylinder, look, physical, yaw_pose
-from ...scene import ROBOT_BASE, TABLE_TOP_Z
+from ...scene import TABLE_TOP_Z
 from ...task_base import Task, frame_quat, needs_turn, turn_gripper
 
 MEATS = ("chicken", "steak")
@@ -150,7 +150,8 @@ class MeatOffGrill(Task):
             np.array([local[0], hy + DROP_OUT, 0.0]),
         )
         drops = [self.world_point(self.grill_pose, p) for p in sides]
-        drop = min(drops, key=lambda w: float(np.hypot(w[0] - ROBOT_BASE[0], w[1])))
+        robot_xy = self.world.robot.base_pose.p[:2]
+        drop = min(drops, key=lambda w: float(np.hypot(w[0] - robot_xy[0], w[1])))
         drop[2] = TABLE_TOP_Z + 2 * half_h - 0.012 + 0.008
         yield self.key(drop + [0.0, 0.0, 0.10], quat, False)
         yield self.key(drop, quat, True)

@@ -21,7 +21,7 @@ import numpy as np
 import sapien
 
 from ...objects import add_box, add_cylinder, yaw_pose
-from ...scene import ROBOT_BASE, TABLE_TOP_Z
+from ...scene import TABLE_TOP_Z
 from ...task_base import Task
 
 PALETTE = ("red", "green", "blue", "yellow", "orange", "purple", "cyan", "white")
@@ -80,7 +80,7 @@ class PushButtons(Task):
         if not sample_variation:
             colours, order = ["red", "green", "blue"], [0]
         positions: list[np.ndarray] = []
-        base = np.asarray(ROBOT_BASE[:2])
+        base = np.asarray(self.world.robot.base_pose.p[:2])
         while len(positions) < 3:
             p = np.array([rng.uniform(0.0, 0.40), rng.uniform(-0.30, 0.30)])
             if np.linalg.norm(p - base) > MAX_REACH:

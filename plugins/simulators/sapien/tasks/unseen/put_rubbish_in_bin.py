@@ -22,7 +22,7 @@ import numpy as np
 import sapien
 
 from ...objects import add_box, add_cylinder, look, physical, yaw_pose
-from ...scene import ROBOT_BASE, TABLE_TOP_Z
+from ...scene import TABLE_TOP_Z
 from ...task_base import Task, down_quat, half_turn, quantised, yaw_of
 
 RUBBISH_HALF = (0.030, 0.026, 0.024)  # the crumpled paper's collision box
@@ -139,7 +139,7 @@ class PutRubbishInBin(Task):
         yield quantised(self.key(grasp, q, False))
         carry = base[2] + BIN_H + 0.03 + 2 * RUBBISH_HALF[2] - GRIP_DEPTH  # its bottom 3 cm above the rim
         # drop it 2.5 cm off the bin's axis on the robot's side: the far edge of the bin is a long reach
-        near = np.asarray(ROBOT_BASE[:2]) - base[:2]
+        near = np.asarray(self.world.robot.base_pose.p[:2]) - base[:2]
         drop = base[:2] + 0.025 * near / np.linalg.norm(near)
         yield quantised(self.key([grasp[0], grasp[1], carry], q, False))
         yield quantised(self.key([*drop, carry], q, False))

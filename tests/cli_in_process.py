@@ -1,0 +1,33 @@
+"""Run a console script's main in this process, as `xicm-<name> args...` from `cwd` would: the
+exit status, stdout and stderr of a subprocess, without paying a new interpreter, Hydra and the
+plugin imports for each error message. tests/test_cli_e2e.py keeps the real subprocesses."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from typing import Callable
+
+
+@dataclass
+class Finished:
+    returncode: int
+    stdout: str
+    stderr: str
+
+
+def run_main(main: Callable[[], None], name: str, *args: str, cwd, monkeypatch, capsys) -> Finished:
+    from hydra.core.global_hydra import GlobalHydra
+
+    monkeypatch.setattr(sys, "argv", [name, *args])
+    monkeypatch.chdir(cwd)
+    capsys.readouterr()  # drop what the test printed before
+    try:
+        main()
+        code = 0
+    except SystemExit as exit_:
+        code = exit_.code if isinstance(exit_.code, int) else (0 if exit_.code is None else 1)
+    finally:
+        GlobalHydra.instance().clear()  # as a fresh process has it
+    out = capsys.readouterr()
+    return Finished(code, out.out, out.err)

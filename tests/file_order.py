@@ -1,0 +1,23 @@
+"""A pytest plugin (loaded by conftest.py): XICM_TEST_ORDER=reverse or --reverse-files runs the
+test files in reverse order, each file's tests in their own order, to show that no test depends
+on another file's having run first."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+
+def pytest_addoption(parser):
+    parser.addoption("--reverse-files", action="store_true", help="run the test files in reverse order (as XICM_TEST_ORDER=reverse)")
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(config, items):
+    if not (config.getoption("--reverse-files") or os.environ.get("XICM_TEST_ORDER") == "reverse"):
+        return
+    files: dict = {}
+    for item in items:
+        files.setdefault(item.path, []).append(item)
+    items[:] = [item for path in reversed(list(files)) for item in files[path]]
