@@ -179,7 +179,14 @@ def missing_methods(kind: str, obj: Any) -> list[str]:
     }.get(kind)
     if cls is None or isinstance(obj, cls):
         return []
-    return sorted(m for m in cls.__abstractmethods__ if not callable(getattr(obj, m, None)))
+    return sorted(m for m in cls.__abstractmethods__ if not _provides(obj, cls, m))
+
+
+def _provides(obj: Any, cls: type, member: str) -> bool:
+    """A method must be callable; a property (LLM.deterministic) only present."""
+    if isinstance(getattr(cls, member, None), property):
+        return hasattr(obj, member)
+    return callable(getattr(obj, member, None))
 
 
 def make_plugin_manager(load_entry_points: bool = True) -> pluggy.PluginManager:

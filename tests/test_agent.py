@@ -17,6 +17,8 @@ from xicm.plugins.policies.xicm.policy import XICMPolicy
 class ScriptedReply(LLM):
     """Test LLM that answers every prompt with a fixed text."""
 
+    deterministic = True
+
     def __init__(self, text):
         self.text = text
 
@@ -27,17 +29,23 @@ class ScriptedReply(LLM):
 class Unreachable(LLM):
     """Test LLM that asks for a pose far outside the robot's reach."""
 
+    deterministic = True
+
     def complete(self, prompt):
         return "[[99, 99, 99, 0, 36, 36, 1]]"
 
 
 class ServerDown(LLM):
+    deterministic = True
+
     def complete(self, prompt):
         raise LLMError("the server at http://127.0.0.1:9/v1 did not answer")
 
 
 class Recording(LLM):
     """Wraps an LLM and keeps every prompt it was asked."""
+
+    deterministic = False
 
     def __init__(self, inner):
         self.inner, self.prompts = inner, []

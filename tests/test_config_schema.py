@@ -227,6 +227,8 @@ def test_a_plugin_registered_without_a_schema_keeps_its_factory_check():
     from xicm.core.plugins import Registry, make_plugin_manager
 
     class Parrot:
+        deterministic = True
+
         def __init__(self, reply="ok"):
             self.reply = reply
 

@@ -116,6 +116,8 @@ def test_video_settings_come_from_the_video_keys(tmp_path):  # their bad values:
 
 
 class _SameReply(LLM):
+    deterministic = True
+
     def complete(self, prompt):
         return "[[40, 50, 40, 0, 36, 36, 1]]"  # reachable, solves nothing
 
