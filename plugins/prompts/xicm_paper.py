@@ -53,9 +53,10 @@ class XicmPaperPromptOptions:
 
 
 class XicmPaperPromptBuilder(PromptBuilder):
-    def __init__(self, system_prompt: str | None = None, objects: str = "paper"):
-        self.system_prompt = SYSTEM_PROMPT if system_prompt is None else str(system_prompt)
-        self.objects = objects
+    def __init__(self, options: XicmPaperPromptOptions | None = None):
+        o = options if options is not None else XicmPaperPromptOptions()
+        self.system_prompt = SYSTEM_PROMPT if o.system_prompt is None else o.system_prompt
+        self.objects = o.objects
 
     def build(self, demos: list[Demo], query: Query, workspace: Box) -> Prompt:
         text = "".join(
