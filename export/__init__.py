@@ -1,2 +1,2 @@
 """`xicm-export`: scripted demonstrations -> a LeRobot dataset, written and read by the real
-`lerobot` library in its own cached environment (lerobot_env.py; see docs/DATASET.md)."""
+`lerobot` library in its own cached environment (xicm/lerobot/env.py; see docs/DATASET.md)."""

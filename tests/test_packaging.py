@@ -9,7 +9,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def test_every_python_package_folder_is_listed_in_pyproject():
     listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
     found = {"xicm"}
-    for top in ("core", "plugins", "conf", "export", "vla", "serving", "report"):
+    for top in ("core", "plugins", "conf", "export", "vla", "serving", "report", "lerobot"):
         for init in (ROOT / top).rglob("__init__.py"):
             if "assets" in init.parts:
                 continue
