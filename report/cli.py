@@ -8,6 +8,7 @@ from pathlib import Path
 
 from xicm.core.errors import XicmError
 from xicm.core.errors import exit_with_error as _fail
+from xicm.report import ReportExtraMissing
 
 
 def report_parser() -> argparse.ArgumentParser:
@@ -81,8 +82,6 @@ def _print_paired(dirs: list[str]) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     """xicm-report DIR [DIR ...] [--html] | --merge OUT_DIR RUN_DIR [RUN_DIR ...] (see report_parser)."""
-    from xicm.report import ReportExtraMissing
-
     try:
         _report(argv)
     except ReportExtraMissing as exc:  # a page or plot without jinja2/matplotlib; the tables are written
