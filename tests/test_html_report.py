@@ -233,3 +233,17 @@ def test_a_page_without_the_report_extra_is_one_sentence_and_the_tables_stay(tmp
     assert done.value.code == 2 and "| close_fridge | level1 | 100.0 |" in captured.out
     assert re.fullmatch(r"xicm: error: (an HTML report|a report figure) needs (jinja2|matplotlib), part of the report extra \(pip install 'xicm\[report\]'\)\n", captured.err), captured.err
     assert not (run / "report.html").exists()
+
+
+def test_a_run_without_the_report_extra_says_so_and_ends_as_usual(tmp_path, capsys, monkeypatch):
+    from omegaconf import OmegaConf
+
+    from xicm.core.eval_job import _write_html
+
+    run = make_run(tmp_path / "run", {(L1, 0): [True]})
+    for name in REPORT_EXTRA:
+        monkeypatch.setitem(__import__("sys").modules, name, None)
+    _write_html(OmegaConf.create({"report": {"html": True, "inline_video_mb": 2}}), run)
+    out = capsys.readouterr().out
+    assert out.startswith("report.html not written (ReportExtraMissing: ") and "(pip install 'xicm[report]')" in out
+    assert not (run / "report.html").exists()
