@@ -5,8 +5,17 @@ run goes on; ConfigError stops a run before its first episode.
 """
 
 
+import sys
+
+
 class XicmError(Exception):
     """Base class of xicm's own errors."""
+
+
+def exit_with_error(exc: Exception) -> None:
+    """A console script's end on a user error: its one sentence on stderr, exit status 2."""
+    print(f"xicm: error: {exc}", file=sys.stderr)
+    sys.exit(2)
 
 
 class ConfigError(XicmError):

@@ -57,7 +57,7 @@ def build_llm(cfg: DictConfig, registry: Registry):
     if check_ready is not None:
         check_ready()
     if cfg.llm_cache.enabled and getattr(llm, "deterministic", False):
-        from xicm.core.llm_cache import CachedLLM
+        from xicm.plugins.policies.xicm.llm_cache import CachedLLM
 
         llm = CachedLLM(llm, cfg.llm_cache.path, enabled=True)
     return llm
