@@ -71,3 +71,22 @@ def test_the_policy_asks_the_detector_for_the_parts_the_prompt_shows(sim):
         texts[all_labels] = _query_text(llm.prompts[0])
     assert "'cube': [" in texts[True] and texts[True].index("'cube'") < texts[True].index("'pole'")
     assert "'cube'" not in texts[False] and "'pole': [" in texts[False]
+
+
+def test_a_duck_typed_prompt_builder_without_scene_parts_still_works(sim):
+    reg = get_registry()
+
+    class OnlyBuild:  # not a PromptBuilder subclass: scene_parts is optional
+        def __init__(self):
+            self.inner = reg.create("prompt", {"name": "xicm_paper"})
+
+        def build(self, demos, query, workspace):
+            return self.inner.build(demos, query, workspace)
+
+    llm = Recording()
+    demo = Demo("close_jar/s0/e0", "close_jar", "close the red jar", 0, 0, {}, [KeyAction((0.2, 0.1, 0.9), UP, True)])
+    policy = XICMPolicy(detector=reg.create("detector", {"name": "oracle"}),
+                        retriever=reg.create("retriever", {"name": "random"}, encoder=None),
+                        prompt_builder=OnlyBuild(), llm=llm, pool=[demo], workspace=sim.workspace, k=1)
+    result = run_episode(sim, policy, "beat_the_buzz", 0, 0, max_steps=1)
+    assert result.error_kind != "detector_error" and "'pole': [" in _query_text(llm.prompts[0])
