@@ -55,3 +55,20 @@ def test_the_kind_is_declared_and_a_bad_value_is_refused():
 
     with pytest.raises(ConfigError, match="workspace_check"):
         get_registry().create_simulator({"name": "sapien", "render": False, "workspace_check": "box"})
+
+
+def test_an_episode_ends_with_the_kind(sim):
+    from xicm.core.episode import run_episode
+    from xicm.core.interfaces import Policy
+
+    class Upward(Policy):
+        def act(self, obs):
+            return [KeyAction((0.2, 0.0, 1.9), DOWN, True)]  # z voxel 130 of a reply read without a range check
+
+    sim.workspace_check = "rlbench"
+    try:
+        result = run_episode(sim, Upward(), "push_buttons", 0, 0, max_steps=3)
+    finally:
+        sim.workspace_check = "grid"
+    assert (result.error_kind, result.steps, result.success) == ("out_of_workspace", 1, False)
+    assert "outside RLBench's workspace in z" in result.error_message
