@@ -51,6 +51,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         video=video,
         transcripts_dir=transcripts_dir,
         instructions=str(cfg.benchmark.get("instructions", "agnostos")),
+        scene_seed=cfg.benchmark.get("scene_seed"),
     ) as runner:
         write_json_atomic(
             RunDir(out_dir).meta,
