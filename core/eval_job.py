@@ -26,7 +26,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     tasks = list(cfg.benchmark.tasks)
     build.check_run(cfg, registry, tasks)
     shards = shard_settings(cfg)
-    video = VideoSettings.from_config(cfg, out_dir)
+    video = VideoSettings.from_config(cfg.video, out_dir)
     run_dir = RunDir(out_dir)
     added = run_dir.check_same_run(cfg)
     if added:
@@ -40,18 +40,18 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     plugins = describe_plugins(registry.pm)
     splits = build.task_splits(registry, tasks)
     keys = episode_keys(tasks, cfg.seeds, cfg.episodes)
-    transcripts_dir = out_dir if cfg.get("transcripts", True) else None
+    transcripts_dir = out_dir if cfg.transcripts else None
     with episode_runner(
         shards,
         cfg,
         out_dir,
         keys,
         max_steps=int(cfg.max_steps),
-        max_control_steps=cfg.get("max_control_steps"),
+        max_control_steps=cfg.max_control_steps,
         video=video,
         transcripts_dir=transcripts_dir,
-        instructions=str(cfg.benchmark.get("instructions", "agnostos")),
-        scene_seed=cfg.benchmark.get("scene_seed"),
+        instructions=cfg.benchmark.instructions,
+        scene_seed=cfg.benchmark.scene_seed,
     ) as runner:
         write_json_atomic(
             RunDir(out_dir).meta,
