@@ -37,17 +37,19 @@ def run_episode(
     video: VideoSettings | None = None,
     transcripts_dir: Path | None = None,
     instructions: str = "agnostos",
+    scene_seed: int | None = None,
 ) -> EpisodeResult:
     """`video`: record the rollout (core/video.py); `transcripts_dir`: the run folder under which
     the policy's prompts and replies, if it keeps them (record()["transcript"]), are written;
-    `instructions`: benchmark.instructions (core/instructions.py)."""
+    `instructions`: benchmark.instructions (core/instructions.py); `scene_seed`:
+    benchmark.scene_seed (None: the scene is drawn from `seed`, else from scene_seed)."""
     result = EpisodeResult(task=task, seed=int(seed), episode=int(episode), success=False, steps=0)
     timings: dict[str, float] = {}
     start = time.perf_counter()
     recorder = None if video is None else EpisodeVideo(video, task, seed, episode)
     try:
         budgets = Budgets(int(max_steps), max_control_steps, simulator, task)
-        _loop(simulator, policy, result, budgets, timings, recorder, instructions)
+        _loop(simulator, policy, result, budgets, timings, recorder, instructions, scene_seed)
     except EpisodeFailure as failure:
         result.error_kind, result.error_message = failure.kind, failure.message
     except LLMError as exc:
@@ -122,6 +124,7 @@ def _loop(
     timings: dict,
     video: EpisodeVideo | None,
     instructions: str = "agnostos",
+    scene_seed: int | None = None,
 ) -> None:
     def timed(stage: str, fn, *args):
         t0 = time.perf_counter()
@@ -131,7 +134,8 @@ def _loop(
             timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
 
     try:
-        obs = timed("reset", simulator.reset, result.task, result.seed, result.episode)
+        scene = result.seed if scene_seed is None else int(scene_seed)  # the policy's stream keeps result.seed
+        obs = timed("reset", simulator.reset, result.task, scene, result.episode)
     except EpisodeFailure:
         raise
     except Exception as exc:

@@ -8,7 +8,7 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from xicm.core import build, report
+from xicm.core import build
 from xicm.core.atomic import write_json_atomic
 from xicm.core.episode_loop import run_episodes
 from xicm.core.plugins import describe_plugins, get_registry
@@ -16,6 +16,7 @@ from xicm.core.ray_shards import episode_runner, shard_settings
 from xicm.core.run_dir import ADDED_ON_RESUME, IDENTITY, RunDir, config_fingerprint, episode_keys, identity
 from xicm.core.tracking import Tracker
 from xicm.core.video import VideoSettings
+from xicm.report import summary as report
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +51,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         video=video,
         transcripts_dir=transcripts_dir,
         instructions=str(cfg.benchmark.get("instructions", "agnostos")),
+        scene_seed=cfg.benchmark.get("scene_seed"),
     ) as runner:
         write_json_atomic(
             RunDir(out_dir).meta,
@@ -89,7 +91,7 @@ def _write_html(cfg: DictConfig, out_dir: Path) -> None:
     never a failed run: its results are already written."""
     if not cfg.report.html:
         return
-    from xicm.core.html_report import write_run_html
+    from xicm.report.html_run import write_run_html
 
     try:
         write_run_html(out_dir, inline_video_mb=float(cfg.report.inline_video_mb))
@@ -102,7 +104,7 @@ def _track_summary(tracker: Tracker, summary: dict[str, Any], rows: list[dict[st
     our row and its per-level bars (tables and a bar chart in the wandb dashboard)."""
     if not tracker.enabled:
         return
-    from xicm.core import table2
+    from xicm.report import table2
 
     tracker.summary({f"success/{g['group']}": g["success"] for g in summary["groups"]})
     tracker.log_table(
