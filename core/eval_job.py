@@ -8,11 +8,11 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from xicm.core import build, report
+from xicm.core import build, checks, report
 from xicm.core.atomic import write_json_atomic
 from xicm.core.episode_loop import run_episodes
 from xicm.core.plugins import describe_plugins, get_registry
-from xicm.core.ray_shards import episode_runner, shard_settings
+from xicm.core.episode_runner import episode_runner
 from xicm.core.run_dir import ADDED_ON_RESUME, IDENTITY, RunDir, config_fingerprint, episode_keys, identity
 from xicm.core.tracking import Tracker
 from xicm.core.video import VideoSettings
@@ -23,8 +23,7 @@ log = logging.getLogger(__name__)
 def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     registry = get_registry()
     tasks = list(cfg.benchmark.tasks)
-    build.check_run(cfg, registry, tasks)
-    shards = shard_settings(cfg)
+    checks.check_run(cfg, registry, tasks)
     video = VideoSettings.from_config(cfg, out_dir)
     run_dir = RunDir(out_dir)
     added = run_dir.check_same_run(cfg)
@@ -39,17 +38,16 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     plugins = describe_plugins(registry.pm)
     splits = build.task_splits(registry, tasks)
     keys = episode_keys(tasks, cfg.seeds, cfg.episodes)
-    transcripts_dir = out_dir if cfg.get("transcripts", True) else None
+    transcripts_dir = out_dir if cfg.transcripts else None
     with episode_runner(
-        shards,
         cfg,
         out_dir,
         keys,
         max_steps=int(cfg.max_steps),
-        max_control_steps=cfg.get("max_control_steps"),
+        max_control_steps=cfg.max_control_steps,
         video=video,
         transcripts_dir=transcripts_dir,
-        instructions=str(cfg.benchmark.get("instructions", "agnostos")),
+        instructions=str(cfg.benchmark.instructions),
     ) as runner:
         write_json_atomic(
             RunDir(out_dir).meta,

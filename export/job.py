@@ -13,13 +13,11 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
-from xicm.core import build
+from xicm.core import build, checks
 from xicm.core.collect_job import resolve_workers
 from xicm.core.collect_walk import EpisodeWalk
-from xicm.core.config_schema import XicmConfig
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import get_registry
-from xicm.core.schema import check_config
 from xicm.export.provenance import Provenance
 from xicm.export.staging import Staging, staged_scene
 
@@ -39,16 +37,16 @@ def simulator_options(cfg: DictConfig) -> dict:
 
 
 def check_export(cfg: DictConfig) -> tuple[list[str], dict]:
-    """Every name and value, before anything is simulated; one ConfigError sentence otherwise."""
-    check_config(cfg, XicmConfig)
+    """Every name and value, before anything is simulated (core/checks.py's EXPORT parts, then a
+    per-step control mode); one ConfigError sentence otherwise."""
     registry = get_registry()
     options = simulator_options(cfg)
+    tasks = export_tasks(cfg)
     try:
-        simulator = registry.check_options("simulator", options)
+        checks.run_checks(checks.EXPORT, cfg, registry, tasks, simulator_options=options)
     except ConfigError as exc:  # export.cameras travel as simulator.cameras: name the key the user set
         raise ConfigError(str(exc).replace("simulator.cameras", "export.cameras")) from None
-    if simulator.extra.get("check") is not None:  # rules between options (rates that must divide)
-        simulator.extra["check"](options)
+    simulator = registry.get("simulator", options["name"])
     if simulator.extra.get("options") is not None:  # the options left out of the YAML take their defaults
         defaults = OmegaConf.structured(simulator.extra["options"])
         options = {"name": options["name"], **OmegaConf.to_container(OmegaConf.merge(defaults, {
@@ -58,8 +56,6 @@ def check_export(cfg: DictConfig) -> tuple[list[str], dict]:
             f"simulator '{cfg.simulator.name}' has no per-step control_mode for the dataset's action; "
             "xicm-export needs a simulator with per-step control (Simulator.control_spec)"
         )
-    tasks = export_tasks(cfg)
-    build.check_tasks(registry, tasks, cfg.simulator.name)
     return tasks, options
 
 
