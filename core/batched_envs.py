@@ -6,7 +6,7 @@ its own policy instance (built here, with the slot's simulator proxy: core/sim_p
 its own simulator process, so every episode runs exactly as it would alone. The slots' `act`
 calls meet in `Lockstep`: once every slot with an episode in progress is waiting for actions,
 `Policy.act_batch` answers them all at once (a remote policy sends its requests together, so
-a server that batches sees them together). Results are handed to `run_episodes` in key order,
+a server that batches sees them together). Results are handed to the run loop (core/run_loop.py) in key order,
 as the Ray shards do, from a bounded window of keys run ahead (core/keyed_window.py).
 """
 
@@ -21,7 +21,7 @@ from xicm.core.build import Run
 from xicm.core.interfaces import Policy
 from xicm.core.keyed_window import Key, KeyedWindow
 from xicm.core.types import EpisodeResult
-WINDOW_PER_ENV = 4  # keys run ahead of the one run_episodes asks for, per environment
+WINDOW_PER_ENV = 4  # keys run ahead of the one the run loop asks for, per environment
 
 
 class Lockstep:

@@ -10,7 +10,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from xicm.core import build, checks, report
 from xicm.core.atomic import write_json_atomic
-from xicm.core.episode_loop import run_episodes
+from xicm.core.run_loop import run_all_episodes
 from xicm.core.plugins import describe_plugins, get_registry
 from xicm.core.episode_runner import episode_runner
 from xicm.core.run_dir import ADDED_ON_RESUME, IDENTITY, RunDir, config_fingerprint, episode_keys, identity
@@ -64,7 +64,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         )
         tracker = Tracker.for_job(cfg, out_dir, config={**OmegaConf.to_container(cfg, resolve=True), "plugins": plugins})
         try:
-            rows = run_episodes(
+            rows = run_all_episodes(
                 runner.run_one,
                 keys,
                 out_dir,

@@ -2,7 +2,7 @@
 
 Each actor builds the simulator and the policy once (core.build.build_run, as a local run does) and runs the
 (task, seed, episode) keys the driver hands it. The driver stays the only writer of
-episodes.jsonl: `core.episode_loop.run_episodes` asks for the pending keys one by one, in key
+episodes.jsonl: `core.run_loop.run_all_episodes` asks for the pending keys one by one, in key
 order, and this module answers from a window of keys handed out ahead to the actors
 (core/keyed_window.py). Which runs use Ray is the dispatcher's choice (core/episode_runner.py). So the
 file is written exactly as by a local run (same order, never a duplicate), and a killed run
