@@ -104,9 +104,9 @@ class Collector:
 
 
 def _collector_from(config: tuple[dict, str | None]) -> Collector:  # a worker's state
-    groups, camera = config
     from omegaconf import OmegaConf
 
+    groups, camera = config
     return Collector(*build_collector(OmegaConf.create(groups)), camera)
 
 
