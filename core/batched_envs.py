@@ -109,8 +109,8 @@ class BatchedEnvs:
         try:
             for sim in simulators:
                 self.runs.append(build_run(cfg, registry, simulator=sim))
-        except BaseException:
-            for sim in simulators[len(self.runs):]:
+        except BaseException:  # build_run closed the simulator it failed with; close the others
+            for sim in simulators[len(self.runs) + 1:]:
                 sim.close()
             self.close()
             raise
