@@ -1,7 +1,9 @@
-"""Run ahead, hand back in key order: the window between a run's episode loop, which asks for
-(task, seed, episode) keys one by one in key order and alone writes episodes.jsonl, and the
-workers that run keys ahead of it (envs=N slots: core/batched_envs.py; Ray actors:
-core/ray_shards.py).
+"""Run ahead, hand back in key order: the window between a run's loop and the workers that run
+its keys ahead (envs=N slots, Ray actors).
+
+The run loop (core/run_loop.py) asks for (task, seed, episode) keys one by one in key order and
+alone writes episodes.jsonl; the slots of core/batched_envs.py and the actors of
+core/ray_shards.py run keys ahead of it.
 
 At most `size` keys are handed out and not yet handed back, so a killed run loses at most
 that many results. The window is bookkeeping only: it is not thread-safe, a caller with

@@ -1,7 +1,8 @@
-"""The outer loop: every (task, seed, episode) key of a run, one after another into its
-episodes.jsonl, skipping those already there (so a killed or extended run resumes where it
-stopped). Each key's episode is one `core.episode.run_episode`, wherever it runs (the
-dispatcher: core/episode_runner.py); the loop inside an episode is core/episode.py's."""
+"""The outer loop: a run's (task, seed, episode) keys one after another into its episodes.jsonl.
+
+Keys already there are skipped, so a killed or extended run resumes where it stopped. Each
+key's episode is one `core.episode.run_episode`, wherever it runs (the dispatcher:
+core/episode_runner.py); the loop inside an episode is core/episode.py's."""
 
 from __future__ import annotations
 
