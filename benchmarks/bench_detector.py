@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import tempfile
 import time
+from pathlib import Path
 
 
 def main() -> None:
@@ -26,7 +28,9 @@ def main() -> None:
     import torch
 
     from xicm.core.plugins import get_registry
-    from xicm.plugins.detectors.tiny_grounding_dino import build_tiny_grounding_dino
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the tiny model is a test helper
+    from tiny_grounding_dino import build_tiny_grounding_dino
 
     torch.set_num_threads(2)
     reg = get_registry()

@@ -36,9 +36,9 @@ def main() -> None:
 
     from hydra import compose, initialize_config_module
 
-    from xicm.export.dataset_writer import dataset_size
+    from xicm.lerobot.dataset_writer import dataset_size
     from xicm.export.job import export_tasks, run_export
-    from xicm.export.lerobot_env import env_python
+    from xicm.lerobot.env import env_python
 
     with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
         base = compose("config")
@@ -84,7 +84,7 @@ def replay(cfg, out: Path, loaded: Path) -> None:
     """Replay the actions LeRobotDataset loads, per control mode, from each episode's reset (the
     scene its scene/* columns name, in the simulator they name)."""
     from xicm.core.plugins import get_registry
-    from xicm.export.dataset_writer import read_dataset
+    from xicm.lerobot.dataset_writer import read_dataset
     from xicm.export.provenance import from_dump
 
     read_dataset(out, cfg.export.repo_id, loaded, cfg.paths.cache)

@@ -1,4 +1,4 @@
-"""Per task: X-ICM's own logs (core/xicm_logs.yaml, RLBench) beside our run folders (SAPIEN):
+"""Per task: X-ICM's own logs (report/xicm_logs.yaml, RLBench) beside our run folders (SAPIEN):
 success, and how failed episodes end (early, before the 25th key action, or after all 25).
 Prints the markdown table of docs/AGNOSTOS.md ("X-ICM's own logs beside our rows").
 
@@ -15,8 +15,8 @@ import argparse
 from collections import Counter, defaultdict
 from pathlib import Path
 
-from xicm.core import table2, xicm_logs
-from xicm.core.report import wilson_interval
+from xicm.report import table2, xicm_logs
+from xicm.report.summary import wilson_interval
 from xicm.core.run_dir import RunDir
 
 

@@ -1,5 +1,6 @@
-"""The Hydra config tree of xicm (a package so that `initialize_config_module("xicm.conf")` and
-`pkg://xicm.conf` find it). Importing it registers the OmegaConf resolvers the configs use and
+"""The Hydra config tree: config.yaml and one folder per config group.
+
+A package so that `initialize_config_module("xicm.conf")` and `pkg://xicm.conf` find it. Importing it registers the OmegaConf resolvers the configs use and
 stores the schemas of config.yaml (xicm.core.config_schema) and of train_dynamics.yaml (the
 dynamics plugin's, xicm.plugins.dynamics.config_schema) in Hydra's ConfigStore."""
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -11,14 +10,10 @@ from omegaconf import DictConfig
 
 import xicm.conf  # noqa: F401  (registers the configs' OmegaConf resolvers and schema)
 from xicm.core.errors import XicmError
+from xicm.core.errors import exit_with_error as _fail
 from xicm.core.plugins import UnknownPluginError
 
 CONFIG_PATH = "../conf"  # core/ and conf/ are siblings in the checkout and in the wheel
-
-
-def _fail(exc: Exception) -> None:
-    print(f"xicm: error: {exc}", file=sys.stderr)
-    sys.exit(2)
 
 
 def _check_command_line() -> None:
@@ -73,7 +68,7 @@ def _eval_job(cfg: DictConfig) -> None:
     from hydra.core.hydra_config import HydraConfig
 
     from xicm.core.eval_job import run_eval
-    from xicm.core.report import markdown_table
+    from xicm.report.summary import markdown_table
     from xicm.core.run_dir import EPISODES, REPORT_FILES
 
     out_dir = Path(HydraConfig.get().runtime.output_dir)
@@ -119,122 +114,3 @@ def plugins_main() -> None:
     print()
     for kind in KINDS:
         print(f"{kind}: {', '.join(registry.names(kind)) or '-'}")
-
-
-def report_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="xicm-report",
-        description="Print the success table of finished or partial xicm-eval runs.",
-    )
-    parser.add_argument(
-        "dirs", nargs="+", metavar="DIR",
-        help="an xicm-eval output folder, or a folder above several (e.g. a multirun): every run below it gets "
-        "its table, and a folder with several runs also gets sweep.md/.csv/.json/.png over the swept keys",
-    )
-    parser.add_argument(
-        "--merge", metavar="OUT_DIR",
-        help="instead, write one report over the runs DIR... (one config, covering different tasks or seeds) into OUT_DIR",
-    )
-    parser.add_argument(
-        "--html", action="store_true",
-        help="also write each run's self-contained report.html (Table-2 layout beside the paper's rows, tasks, "
-        "episodes with demos, transcripts and videos) and, over several runs, sweep.html",
-    )
-    parser.add_argument(
-        "--paired", action="store_true",
-        help="instead, compare two runs DIR_A DIR_B on the episodes both hold: per-task counts and the exact McNemar test",
-    )
-    parser.add_argument(
-        "--pool", metavar="PATH",
-        help="with --html: the demonstration pool to take retrieved demos' first frames from "
-        "(default: the run's pool_path, as recorded or relative to the run folder)",
-    )
-    parser.add_argument(
-        "--inline-video-mb", type=_non_negative, default=None, metavar="MB",
-        help="with --html: inline videos up to this size, link larger ones (default: the run's report.inline_video_mb, else 2)",
-    )
-    return parser
-
-
-def _non_negative(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not value >= 0:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of megabytes >= 0")
-    return value
-
-
-def _write_html(run_dir: Path, args: argparse.Namespace) -> None:
-    from xicm.core.html_report import INLINE_VIDEO_MB, write_run_html
-    from xicm.core.run_dir import RunDir
-
-    limit = args.inline_video_mb
-    if limit is None:
-        limit = ((RunDir(run_dir).read_meta().get("config") or {}).get("report") or {}).get("inline_video_mb", INLINE_VIDEO_MB)
-    path = write_run_html(run_dir, inline_video_mb=float(limit), pool=args.pool)
-    print(f"written: {path} ({path.stat().st_size / 1e6:.2f} MB)\n")
-
-
-def _print_paired(dirs: list[str]) -> None:
-    from xicm.core.paired import paired_comparison, paired_markdown
-    from xicm.core.run_dir import RunDir
-
-    if len(dirs) != 2:
-        _fail(XicmError(f"--paired compares two runs, not {len(dirs)}: xicm-report --paired RUN_A RUN_B"))
-    try:
-        rows = [RunDir(Path(d)).rows(RunDir(Path(d)).read_meta()) for d in dirs]
-    except (XicmError, OSError) as exc:
-        _fail(XicmError(str(exc)))
-    print(paired_markdown(paired_comparison(*rows), dirs[0], dirs[1]))
-
-
-def report_main(argv: list[str] | None = None) -> None:
-    """xicm-report DIR [DIR ...] [--html] | --merge OUT_DIR RUN_DIR [RUN_DIR ...] (see report_parser)."""
-    from xicm.core.report import markdown_table, media_lines, std_ddof, summarise
-    from xicm.core.run_dir import EPISODES, META, REPORT_FILES, RunDir, find_runs
-
-    args = report_parser().parse_args(argv)
-    if args.paired:
-        _print_paired(args.dirs)
-        return
-    if args.merge is not None:
-        from xicm.core.merge import merge_runs
-
-        try:
-            summary = merge_runs(Path(args.merge), [Path(d) for d in args.dirs])
-        except XicmError as exc:
-            _fail(exc)
-        print(markdown_table(summary))
-        print(f"\nmerged into {args.merge} ({', '.join((EPISODES, META, *REPORT_FILES))})")
-        if args.html:
-            _write_html(Path(args.merge), args)
-        return
-    for arg in args.dirs:
-        run_dirs = find_runs(Path(arg))
-        if not run_dirs:
-            _fail(XicmError(f"{arg} has no {EPISODES} and {META}, nor a folder below it; pass an xicm-eval output folder"))
-        for run_dir in run_dirs:
-            run = RunDir(run_dir)
-            meta = run.read_meta()
-            print(f"## {run_dir}\n")
-            rows = run.rows(meta)
-            print(markdown_table(summarise(rows, meta["splits"], meta["tasks"], std_ddof(meta))))
-            for line in media_lines(rows, run_dir):  # rollout videos and LLM transcripts, if any
-                print(line)
-            print()
-            if args.html:
-                _write_html(run_dir, args)
-        if len(run_dirs) > 1:  # a sweep: one table over the runs, and a plot
-            from xicm.core.sweep import SWEEP_FILES, sweep_markdown, write_sweep
-
-            sweep = write_sweep(Path(arg), run_dirs)
-            print(f"## sweep over {', '.join(sweep['axes']) or 'nothing (the runs share one config)'}\n")
-            print(sweep_markdown(sweep))
-            print(f"written: {Path(arg) / SWEEP_FILES[0]}, {', '.join(SWEEP_FILES[1:])}\n")
-            if args.html:
-                from xicm.core.html_sweep import write_sweep_html
-
-                path = write_sweep_html(Path(arg), run_dirs)
-                print(f"written: {path} ({path.stat().st_size / 1e6:.2f} MB)\n")

@@ -126,6 +126,12 @@ class Benchmark:
     #: agnostos: each task's AGNOSTOS instruction; sampled: one of its variation-0 phrasings per
     #: episode, drawn from the episode's seed stream (language-robustness studies)
     instructions: str = field(default="agnostos", metadata=one_of(*INSTRUCTION_CHOICES))
+    #: null: each seed draws its own scenes; a seed: every seed replays this seed's scenes (episode e
+    #: of task t is the same scene under every seed, as X-ICM replays 25 stored scenes), while the
+    #: policy's random draws (e.g. retriever=random) still follow the run's seed
+    scene_seed: Optional[int] = field(
+        default=None, metadata=rule(lambda v: v is None or 0 <= v <= SEED_MAX, f"null or an integer from 0 to {SEED_MAX}")
+    )
 
 
 @dataclass

@@ -323,3 +323,14 @@ def pool_info(path: str | Path) -> dict[str, Any]:
         "demos": demos,
         "attempts": tried,
     }
+
+
+def first_frames(path: str | Path, demo_ids: Iterable[str]) -> dict[str, np.ndarray]:
+    """{demo id: its first RGB frame} for the ids the pool holds (ids it lacks are left out)."""
+    out = {}
+    with _open_read(require_pool(path)) as f:
+        for did in demo_ids:
+            key = f"{DEMOS}/{did}/first_rgb"
+            if key in f:
+                out[did] = f[key][()]
+    return out

@@ -92,8 +92,13 @@ def format_objects(objects: dict[str, Sequence[float]], workspace: Box) -> str:
 
 
 # ---------------------------------------------------------------- key frames
+#: key-frame rules: ours never calls frames 0-1 stopped; xicm reads frames i-1 and i-2 as X-ICM's
+#: `_is_stopped` does, so for i = 0, 1 they wrap to the end of the trajectory (Python's negative index)
+KEYFRAME_RULES = ("ours", "xicm")
+
+
 def keyframe_indices(
-    joint_velocities: np.ndarray, gripper_open: np.ndarray, stopping_delta: float = 0.1
+    joint_velocities: np.ndarray, gripper_open: np.ndarray, stopping_delta: float = 0.1, rule: str = "ours"
 ) -> list[int]:
     """Key frames of a recorded trajectory (the AGNOSTOS/PerAct heuristic).
 
@@ -102,14 +107,20 @@ def keyframe_indices(
     the gripper state unchanged over frames i-2..i+1, i is not the second-to-last frame, and
     at least 4 frames have passed since the previous stop. If the last two key frames are
     adjacent, the second-to-last is dropped.
+
+    rule "xicm" also lets frames 0 and 1 be stopped, their frames i-1, i-2 read from the end of
+    the trajectory as X-ICM's code reads them: a stop at frame 1 is a key frame, and a stop at
+    frame 0 (never a key frame itself) holds off stops at frames 1-4.
     """
+    if rule not in KEYFRAME_RULES:
+        raise ValueError(f"key-frame rule '{rule}' is unknown; allowed: {', '.join(KEYFRAME_RULES)}")
     vel = np.asarray(joint_velocities, float)
     grip = np.asarray(gripper_open, bool)
     n = len(grip)
     keys: list[int] = []
     stop_buffer = 0
     for i in range(n):
-        stopped = _is_stopped(vel, grip, i, stop_buffer, stopping_delta)
+        stopped = _is_stopped(vel, grip, i, stop_buffer, stopping_delta, wrap=rule == "xicm")
         stop_buffer = 4 if stopped else stop_buffer - 1
         if i == 0:
             continue
@@ -120,18 +131,18 @@ def keyframe_indices(
     return keys
 
 
-def _is_stopped(vel: np.ndarray, grip: np.ndarray, i: int, stop_buffer: int, delta: float) -> bool:
+def _is_stopped(vel: np.ndarray, grip: np.ndarray, i: int, stop_buffer: int, delta: float, wrap: bool = False) -> bool:
     n = len(grip)
-    if stop_buffer > 0 or i < 2 or i >= n - 2:
+    if stop_buffer > 0 or (i < 2 and not wrap) or i >= n - 2:
         return False
-    gripper_steady = grip[i] == grip[i + 1] == grip[i - 1] == grip[i - 2]
+    gripper_steady = grip[i] == grip[i + 1] == grip[i - 1] == grip[i - 2]  # i - 1, i - 2 < 0 wrap (rule xicm)
     return bool(gripper_steady and np.allclose(vel[i], 0.0, atol=delta))
 
 
-def key_actions_from_trajectory(traj: Trajectory, stopping_delta: float = 0.1) -> list[KeyAction]:
+def key_actions_from_trajectory(traj: Trajectory, stopping_delta: float = 0.1, rule: str = "ours") -> list[KeyAction]:
     """Key actions (TCP pose + gripper state) at the key frames of a trajectory."""
     actions = []
-    for i in keyframe_indices(traj.joint_velocities, traj.gripper_open, stopping_delta):
+    for i in keyframe_indices(traj.joint_velocities, traj.gripper_open, stopping_delta, rule):
         pose = traj.ee_poses[i]
         actions.append(
             KeyAction(

@@ -40,17 +40,19 @@ def run_episode(
     video: VideoSettings | None = None,
     transcripts_dir: Path | None = None,
     instructions: str = "agnostos",
+    scene_seed: int | None = None,
 ) -> EpisodeResult:
     """`video`: record the rollout (core/video.py); `transcripts_dir`: the run folder under which
     the policy's prompts and replies, if it keeps them (record()["transcript"]), are written;
-    `instructions`: benchmark.instructions (core/instructions.py)."""
+    `instructions`: benchmark.instructions (core/instructions.py); `scene_seed`:
+    benchmark.scene_seed (None: the scene is drawn from `seed`, else from scene_seed)."""
     result = EpisodeResult(task=task, seed=int(seed), episode=int(episode), success=False, steps=0)
     timings: dict[str, float] = {}
     start = time.perf_counter()
     recorder = None if video is None else EpisodeVideo(video, task, seed, episode)
     try:
         budgets = Budgets(int(max_steps), max_control_steps, simulator, task)
-        _act_until_done(simulator, policy, result, budgets, timings, recorder, instructions)
+        _act_until_done(simulator, policy, result, budgets, timings, recorder, instructions, scene_seed)
     except EpisodeFailure as failure:
         result.error_kind, result.error_message = failure.kind, failure.message
     except LLMError as exc:
@@ -132,18 +134,20 @@ def start_episode(
     episode: int,
     instructions: str = "agnostos",
     *,
+    scene_seed: int | None = None,
     observation: Observation | None = None,
     timings: dict[str, float] | None = None,
 ) -> EpisodeStart:
     """The one episode start, wherever an episode runs (here, an envs=N slot, a Ray actor, a
-    served policy): reset the simulator to the scene (task, seed, episode), give the observation
-    the episode's instruction (benchmark.instructions: core/instructions.py), then
-    `policy.on_episode` and `policy.reset` with the episode's own random stream. `observation`:
+    served policy): reset the simulator to the scene (task, seed, episode) (or, with
+    benchmark.scene_seed, (task, scene_seed, episode)), give the observation the episode's
+    instruction (benchmark.instructions: core/instructions.py), then `policy.on_episode` and
+    `policy.reset` with the episode's own random stream (which keeps `seed`). `observation`:
     the policy's first observation when it comes from elsewhere (a served policy's client); it
     gets the same instruction. A failed reset raises EpisodeFailure("sim_error")."""
     t0 = time.perf_counter()
     try:
-        obs = simulator.reset(task, seed, episode)
+        obs = simulator.reset(task, seed if scene_seed is None else int(scene_seed), episode)
     except EpisodeFailure:
         raise
     except Exception as exc:
@@ -167,6 +171,7 @@ def _act_until_done(
     timings: dict,
     video: EpisodeVideo | None,
     instructions: str = "agnostos",
+    scene_seed: int | None = None,
 ) -> None:
     def timed(stage: str, fn, *args):
         t0 = time.perf_counter()
@@ -175,7 +180,8 @@ def _act_until_done(
         finally:
             timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
 
-    start = start_episode(simulator, policy, result.task, result.seed, result.episode, instructions, timings=timings)
+    start = start_episode(simulator, policy, result.task, result.seed, result.episode, instructions,
+                          scene_seed=scene_seed, timings=timings)
     obs, reword = start.first, start.reword
     if video is not None:
         video.start(simulator, obs)

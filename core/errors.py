@@ -5,8 +5,17 @@ run goes on; ConfigError stops a run before its first episode.
 """
 
 
+import sys
+
+
 class XicmError(Exception):
     """Base class of xicm's own errors."""
+
+
+def exit_with_error(exc: Exception) -> None:
+    """A console script's end on a user error: its one sentence on stderr, exit status 2."""
+    print(f"xicm: error: {exc}", file=sys.stderr)
+    sys.exit(2)
 
 
 class ConfigError(XicmError):
@@ -33,6 +42,7 @@ ERROR_KINDS = (
     "parse_error",  # the reply held no usable 7-integer action
     "llm_error",  # the LLM failed to answer
     "unreachable",  # IK/planning could not reach a pose
+    "out_of_workspace",  # simulator.workspace_check: rlbench: a target RLBench's workspace check refuses (InvalidActionError)
     "sim_error",  # the simulator raised during the episode
     "unsolvable_scene",  # simulator.scenes: rlbench: no draw of the scene was solved by the task's demonstrator
     "detector_error",  # the detector failed

@@ -8,14 +8,15 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from xicm.core import build, checks, report
+from xicm.core import build, checks
 from xicm.core.atomic import write_json_atomic
-from xicm.core.run_loop import run_all_episodes
-from xicm.core.plugins import describe_plugins, get_registry
 from xicm.core.episode_runner import episode_runner
+from xicm.core.plugins import describe_plugins, get_registry
 from xicm.core.run_dir import ADDED_ON_RESUME, IDENTITY, RunDir, config_fingerprint, episode_keys, identity
+from xicm.core.run_loop import run_all_episodes
 from xicm.core.tracking import Tracker
 from xicm.core.video import VideoSettings
+from xicm.report import summary as report
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +49,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         video=video,
         transcripts_dir=transcripts_dir,
         instructions=str(cfg.benchmark.instructions),
+        scene_seed=cfg.benchmark.scene_seed,
     ) as runner:
         write_json_atomic(
             RunDir(out_dir).meta,
@@ -87,7 +89,7 @@ def _write_html(cfg: DictConfig, out_dir: Path) -> None:
     never a failed run: its results are already written."""
     if not cfg.report.html:
         return
-    from xicm.core.html_report import write_run_html
+    from xicm.report.html_run import write_run_html
 
     try:
         write_run_html(out_dir, inline_video_mb=float(cfg.report.inline_video_mb))
@@ -100,7 +102,7 @@ def _track_summary(tracker: Tracker, summary: dict[str, Any], rows: list[dict[st
     our row and its per-level bars (tables and a bar chart in the wandb dashboard)."""
     if not tracker.enabled:
         return
-    from xicm.core import table2
+    from xicm.report import table2
 
     tracker.summary({f"success/{g['group']}": g["success"] for g in summary["groups"]})
     tracker.log_table(

@@ -159,6 +159,11 @@ class PromptBuilder(ABC):
     def build(self, demos: list[Demo], query: Query, workspace: Box) -> Prompt:
         """The prompt for one LLM call; demos are given best first."""
 
+    def scene_parts(self, task: str) -> list[str]:
+        """Scene parts (segment names that are not among the task's objects) the prompt shows for
+        `task`; the policy asks the detector for them too and passes them in Query.objects."""
+        return []
+
 
 class LLM(ABC):
     """Answers a prompt with text that should contain 7-integer key actions."""

@@ -87,7 +87,7 @@ def run_export(cfg: DictConfig) -> dict:
     episodes = [p for t in tasks for p in staging.episodes(t, int(ex.seed), int(ex.demos_per_task))]
     if not episodes:
         raise ConfigError(f"no scripted demo of {', '.join(tasks)} succeeded: nothing to export")
-    from xicm.export.dataset_writer import dataset_size, write_dataset
+    from xicm.lerobot.dataset_writer import dataset_size, write_dataset
 
     recorded_in = {k: v for k, v in options.items() if k != "name"}
     provenance = [Provenance(*staged_scene(p), options["name"], recorded_in).columns() for p in episodes]

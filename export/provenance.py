@@ -86,6 +86,6 @@ def column_names() -> list[str]:
 
 
 def from_dump(loaded: dict) -> list[Provenance]:
-    """Each episode's provenance, in episode order, from what dataset_writer.read_dataset dumped
-    (lerobot_reader.py: the `episodes` JSON of LeRobot's own metadata reader)."""
+    """Each episode's provenance, in episode order, from what xicm.lerobot.dataset_writer.read_dataset dumped
+    (xicm/lerobot/reader.py: the `episodes` JSON of LeRobot's own metadata reader)."""
     return [Provenance.from_row(row) for row in json.loads(str(loaded["episodes"]))]

@@ -1,4 +1,5 @@
-"""Local ports for servers started by tests and benchmarks: a port that is free now, waiting
+"""Local ports for server processes (the llamacpp plugin's llama-server; servers in tests and
+benchmarks): a port that is free now, waiting
 until a server process answers HTTP 200 on a URL, and what a server process holds (standard
 library only, but for psutil in `server_counts`)."""
 

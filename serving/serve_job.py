@@ -33,7 +33,8 @@ def serve_policy(cfg: DictConfig, ready=None) -> None:
         raise ConfigError(str(exc)) from None
     if int(cfg.serve.sessions) > int(cfg.serve.max_sessions):
         raise ConfigError(f"serve.sessions ({cfg.serve.sessions}) is over serve.max_sessions ({cfg.serve.max_sessions}): sessions past the cap would never be used")
-    served = ServedPolicies(build, sessions=int(cfg.serve.sessions), instructions=str(cfg.benchmark.instructions))
+    served = ServedPolicies(build, sessions=int(cfg.serve.sessions), instructions=str(cfg.benchmark.instructions),
+                             scene_seed=cfg.benchmark.scene_seed)
     idle = cfg.serve.idle_timeout_s
     server = PolicyServer(served, host=str(cfg.serve.host), port=int(cfg.serve.port), metadata=served.metadata(),
                           api_key=api_key, max_sessions=int(cfg.serve.max_sessions),

@@ -27,10 +27,11 @@ from xicm.serving.observation import observation_from_wire
 
 
 class ServedPolicy:
-    def __init__(self, run: Run, instructions: str = "agnostos"):
+    def __init__(self, run: Run, instructions: str = "agnostos", scene_seed: int | None = None):
         self.run = run
         self.policy = run.policy
-        self.instructions = instructions  # benchmark.instructions, as a local episode rewords them
+        # benchmark.instructions and benchmark.scene_seed: an episode starts as a local one does
+        self.instructions, self.scene_seed = instructions, scene_seed
         self.current: tuple[str, int, int] | None = None
         self.reword: Callable[[Observation], Observation] = lambda o: o
 
@@ -79,7 +80,8 @@ class ServedPolicy:
     def _start(self, key: tuple[str, int, int], observation: Observation | None) -> Observation:
         """A local episode's start (core.episode.start_episode) on the server's simulator; the
         observation the policy was reset with."""
-        start = start_episode(self.run.simulator, self.policy, *key, self.instructions, observation=observation)
+        start = start_episode(self.run.simulator, self.policy, *key, self.instructions, scene_seed=self.scene_seed,
+                              observation=observation)
         self.first_obs, self.reword, self.current = start.scene, start.reword, key
         return start.first
 
@@ -113,12 +115,16 @@ class ServedPolicies:
     burst of clients leaves no process behind. Each session's simulator lives in its own worker
     process (core/sim_process.py), so sessions act in parallel."""
 
-    def __init__(self, build: Callable[[], Run], sessions: int = 1, instructions: str = "agnostos"):
-        self.build, self.instructions = build, instructions
+    def __init__(self, build: Callable[[], Run], sessions: int = 1, instructions: str = "agnostos",
+                 scene_seed: int | None = None):
+        self.build, self.instructions, self.scene_seed = build, instructions, scene_seed
         self.lock = threading.Lock()  # guards the session lists only
-        self.idle: list[ServedPolicy] = [ServedPolicy(build(), instructions) for _ in range(max(1, sessions))]  # built at start
+        self.idle: list[ServedPolicy] = [self._session(build()) for _ in range(max(1, sessions))]  # built at start
         self.all = list(self.idle)
         self.kept = len(self.all)  # sessions kept between connections
+
+    def _session(self, run: Run) -> ServedPolicy:
+        return ServedPolicy(run, self.instructions, self.scene_seed)
 
     def metadata(self) -> dict[str, Any]:
         return self.all[0].metadata()
@@ -126,7 +132,7 @@ class ServedPolicies:
     def open_session(self) -> ServedPolicy:
         with self.lock:
             if not self.idle:
-                self.idle.append(ServedPolicy(self.build(), self.instructions))
+                self.idle.append(self._session(self.build()))
                 self.all.append(self.idle[-1])
             return self.idle.pop()
 

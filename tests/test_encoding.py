@@ -92,3 +92,37 @@ def test_adjacent_last_keyframes_drop_the_second_to_last():
     grip = [True] * 6 + [False, False]
     # gripper change at 6 and last frame 7 are adjacent -> keep only 7
     assert encoding.keyframe_indices(vel, grip) == [7]
+
+
+def test_xicm_rule_reads_the_end_of_the_trajectory_for_frames_0_and_1():
+    moving, still = [0.5] * 7, [0.0] * 7
+    # frame 1 and frame 5 still; the gripper stays open to the last frame
+    vel = [moving, still, moving, moving, moving, still] + [moving] * 6
+    grip = [True] * 12
+    assert encoding.keyframe_indices(vel, grip) == [5, 11]
+    # X-ICM: frame 1's i-2 is the last frame (open, as frame 1): frame 1 is a stop, and its
+    # hold-off of 4 frames swallows the stop at frame 5
+    assert encoding.keyframe_indices(vel, grip, rule="xicm") == [1, 11]
+    actions = encoding.key_actions_from_trajectory(_trajectory(vel, grip), rule="xicm")
+    assert [a.position[0] for a in actions] == [1.0, 11.0]
+
+
+def test_xicm_rule_changes_nothing_when_the_wrapped_frames_differ():
+    moving, still = [0.5] * 7, [0.0] * 7
+    vel = [moving, still, moving, moving, moving, still] + [moving] * 6
+    grip = [True] * 11 + [False]  # closed at the end: frame 1's wrapped neighbour differs
+    assert encoding.keyframe_indices(vel, grip, rule="xicm") == encoding.keyframe_indices(vel, grip) == [5, 11]
+
+
+def test_a_stop_at_frame_0_is_no_key_frame_but_holds_off_the_next_stops():
+    still = [0.0] * 7
+    vel, grip = [still] * 12, [True] * 12
+    # ours: stops at 2 and 7; X-ICM: frame 0 stops (not a key frame), so 1-4 cannot; then 5 and 10
+    # (10 dropped: next to the last frame)
+    assert encoding.keyframe_indices(vel, grip) == [2, 7, 11]
+    assert encoding.keyframe_indices(vel, grip, rule="xicm") == [5, 11]
+
+
+def test_an_unknown_keyframe_rule_is_refused():
+    with pytest.raises(ValueError, match="allowed: ours, xicm"):
+        encoding.keyframe_indices([[0.0] * 7] * 3, [True] * 3, rule="peract")

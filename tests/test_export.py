@@ -176,7 +176,7 @@ def _export_cfg(out_dir: Path, *more: str):
 
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory):
-    from xicm.export.dataset_writer import read_dataset
+    from xicm.lerobot.dataset_writer import read_dataset
     from xicm.export.job import run_export
 
     out_dir = tmp_path_factory.mktemp("export") / "agnostos_seen"
@@ -300,7 +300,7 @@ def test_a_partial_export_resumes_recording_only_what_is_missing(exported, monke
     import shutil
 
     from xicm.export import record
-    from xicm.export.dataset_writer import read_dataset
+    from xicm.lerobot.dataset_writer import read_dataset
     from xicm.export.job import run_export
 
     cfg, out_dir, _, _, staged = exported
@@ -330,7 +330,7 @@ def test_key_frames_of_the_same_staging_load_with_lerobot_and_replay_to_success(
 
     from xicm.core.plugins import get_registry
     from xicm.export import record
-    from xicm.export.dataset_writer import read_dataset
+    from xicm.lerobot.dataset_writer import read_dataset
     from xicm.export.job import run_export
     from xicm.export.provenance import from_dump
 

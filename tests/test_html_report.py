@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from xicm.core import table2
-from xicm.core.cli import report_main
-from xicm.core.html_report import write_run_html
-from xicm.core.html_sweep import write_sweep_html
+from xicm.report import table2
+from xicm.report.cli import main as report_main
+from xicm.report.html_run import write_run_html
+from xicm.report.html_sweep import write_sweep_html
 
 ROOT = Path(__file__).resolve().parents[1]
 L1, L2 = "close_fridge", "unplug_charger"  # one task of each paper level
@@ -81,10 +81,14 @@ def make_run(folder, outcomes, pool_path="pools/seen.h5", video_bytes=None, conf
 
 
 def make_pool(path):
+    """A pool file holding one demo's first frame (the report reads it through core.dataset)."""
     import h5py
+
+    from xicm.core.dataset import FORMAT
 
     path.parent.mkdir(parents=True, exist_ok=True)
     with h5py.File(path, "w") as f:
+        f.attrs["format"] = FORMAT
         f.create_dataset(f"demos/{DEMO}/first_rgb", data=np.full((64, 64, 3), 200, np.uint8))
 
 
@@ -196,3 +200,50 @@ def test_merged_runs_get_one_page(tmp_path, capsys):
     assert f"written: {tmp_path}/merged/report.html" in capsys.readouterr().out
     head, ours, *_ = Page((tmp_path / "merged/report.html").read_text()).rows["table2"]
     assert ours[head.index(L1)].startswith("100.0") and ours[head.index(L2)].startswith("0.0") and ours[-1].startswith("50.0")
+
+
+REPORT_EXTRA = ("jinja2", "matplotlib", "matplotlib.pyplot")
+
+
+def test_core_and_the_report_tables_import_without_the_report_extra():
+    """jinja2 and matplotlib (the `report` extra) blocked: every core module and the report's
+    modules still import; only writing a page or a plot needs them."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, pkgutil, importlib;"
+        f"sys.modules.update(dict.fromkeys({REPORT_EXTRA!r}));"
+        "import xicm.core, xicm.report;"
+        "names = [f'{p.__name__}.{m.name}' for p in (xicm.core, xicm.report) for m in pkgutil.iter_modules(p.__path__)];"
+        "[importlib.import_module(n) for n in names];"
+        "print(len(names), [m for m in ('jinja2', 'matplotlib') if sys.modules.get(m) is not None])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split(maxsplit=1)
+    assert int(out[0]) > 40 and out[1].strip() == "[]"
+
+
+def test_a_page_without_the_report_extra_is_one_sentence_and_the_tables_stay(tmp_path, capsys, monkeypatch):
+    run = make_run(tmp_path / "run", {(L1, 0): [True]})
+    for name in REPORT_EXTRA:
+        monkeypatch.setitem(__import__("sys").modules, name, None)
+    with pytest.raises(SystemExit) as done:
+        report_main([str(run), "--html"])
+    captured = capsys.readouterr()
+    assert done.value.code == 2 and "| close_fridge | level1 | 100.0 |" in captured.out
+    assert re.fullmatch(r"xicm: error: (an HTML report|a report figure) needs (jinja2|matplotlib), part of the report extra \(pip install 'xicm\[report\]'\)\n", captured.err), captured.err
+    assert not (run / "report.html").exists()
+
+
+def test_a_run_without_the_report_extra_says_so_and_ends_as_usual(tmp_path, capsys, monkeypatch):
+    from omegaconf import OmegaConf
+
+    from xicm.core.eval_job import _write_html
+
+    run = make_run(tmp_path / "run", {(L1, 0): [True]})
+    for name in REPORT_EXTRA:
+        monkeypatch.setitem(__import__("sys").modules, name, None)
+    _write_html(OmegaConf.create({"report": {"html": True, "inline_video_mb": 2}}), run)
+    out = capsys.readouterr().out
+    assert out.startswith("report.html not written (ReportExtraMissing: ") and "(pip install 'xicm[report]')" in out
+    assert not (run / "report.html").exists()

@@ -178,7 +178,7 @@ def test_xicm_export_records_its_episodes_through_the_contract(kinematic):
 @pytest.mark.venv
 @needs_lerobot
 def test_xicm_export_writes_a_lerobot_dataset_of_it(tmp_path):
-    from xicm.export.dataset_writer import read_dataset
+    from xicm.lerobot.dataset_writer import read_dataset
 
     out_dir = tmp_path / "kinematic"
     done = xicm("xicm-export", f"export.tasks=[{','.join(TASKS)}]", "export.demos_per_task=2", "export.workers=1",

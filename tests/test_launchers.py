@@ -80,7 +80,7 @@ def test_joblib_multirun_runs_two_jobs_and_the_report_reads_them(tmp_path):
 
 def test_list_valued_overrides_are_hashable_sweep_axes(tmp_path):
     """`seeds=[0],[1]` (one launcher job per seed) gives axis values the sweep can sort and plot."""
-    from xicm.core.sweep import recorded_overrides, varying
+    from xicm.report.sweep import recorded_overrides, varying
 
     runs = []
     for seed in (0, 1):

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from xicm.export.lerobot_env import env_python
+from xicm.lerobot.env import env_python
 from xicm.serving.client import PolicyClient, ServerError, server_uri
-from xicm.serving.lerobot_serve import start
+from xicm.lerobot.serve import start
 
 pytestmark = [pytest.mark.slow, pytest.mark.venv, pytest.mark.subprocess]
 CACHE = Path(os.environ.get("XICM_CACHE", Path.home() / ".cache" / "xicm")).expanduser()

@@ -1,4 +1,4 @@
-"""core.llm_cache: SQLite response cache and the CachedLLM wrapper."""
+"""plugins/policies/xicm/llm_cache.py: SQLite response cache and the CachedLLM wrapper."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from xicm.core.errors import LLMError
 from xicm.core.interfaces import LLM
-from xicm.core.llm_cache import CachedLLM, ResponseCache, cache_key
+from xicm.plugins.policies.xicm.llm_cache import CachedLLM, ResponseCache, cache_key
 from xicm.core.types import Prompt, Query
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
@@ -105,7 +105,7 @@ def test_first_writer_wins(tmp_path):
 WRITER = textwrap.dedent(
     """
     import sys
-    from xicm.core.llm_cache import ResponseCache
+    from xicm.plugins.policies.xicm.llm_cache import ResponseCache
     path, tag = sys.argv[1], sys.argv[2]
     cache = ResponseCache(path, timeout_s=60)
     for i in range(300):

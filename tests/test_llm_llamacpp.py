@@ -189,3 +189,10 @@ def test_identity_names_model_and_decoding():
     for part in ('"model": "qwen2_5_coder_0_5b"', '"repeat_last_n": -1', '"grammar": "actions"', '"seed": 0'):
         assert part in identity
     assert llm.deterministic
+
+
+def test_stop_at_action_list_is_in_the_identity_only_when_it_cuts():
+    whole = LlamaCppLLM(model="qwen2_5_coder_0_5b")
+    cut = LlamaCppLLM(model="qwen2_5_coder_0_5b", stop_at_action_list=True)
+    assert "stop_at_action_list" not in whole.identity()  # replies cached before the option stay valid
+    assert '"stop_at_action_list": true' in cut.identity() and cut.stop_at_action_list

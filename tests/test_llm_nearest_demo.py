@@ -121,7 +121,7 @@ def test_registered_as_plugin_and_identity():
 
 def test_nearest_demo_is_never_served_from_the_message_keyed_cache(tmp_path):
     """Two queries whose text rounds to the same voxels must still get their own replies."""
-    from xicm.core.llm_cache import CachedLLM
+    from xicm.plugins.policies.xicm.llm_cache import CachedLLM
     from xicm.plugins.llms.nearest_demo import NearestDemoLLM
 
     assert CachedLLM(NearestDemoLLM(), tmp_path / "c.sqlite").enabled is False

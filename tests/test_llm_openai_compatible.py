@@ -419,3 +419,12 @@ def test_grammar_none_sends_no_field_and_keeps_the_identity(fake):
         llm(fake, server="tgi")
     with pytest.raises(ConfigError, match=r"^llm.grammar 'json' is unknown; allowed: none, actions$"):
         llm(fake, grammar="json")
+
+
+def test_stop_at_action_list_cuts_the_reply_after_its_first_list_and_changes_the_identity(fake):
+    fake.reply = "[[1, 2, 3, 4, 5, 6, 1]]\nand then [[7, 8, 9, 4, 5, 6, 0]]"
+    whole, cut = llm(fake), llm(fake, stop_at_action_list=True)
+    assert whole.complete(make_prompt()) == fake.reply  # X-ICM reads every list: the default
+    assert cut.complete(make_prompt()) == "[[1, 2, 3, 4, 5, 6, 1]]"
+    assert "stop_at_action_list" not in json.loads(whole.identity())  # cached replies stay valid
+    assert json.loads(cut.identity())["stop_at_action_list"] is True

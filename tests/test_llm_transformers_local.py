@@ -230,7 +230,7 @@ def test_module_import_is_light():
     import sys
 
     code = "import sys, xicm.plugins.llms.transformers_local, xicm.plugins.llms.openai_compatible, " \
-        "xicm.plugins.llms.nearest_demo, xicm.core.llm_cache; print(any(m in sys.modules for m in ('torch', 'transformers')))"
+        "xicm.plugins.llms.nearest_demo, xicm.plugins.policies.xicm.llm_cache; print(any(m in sys.modules for m in ('torch', 'transformers')))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
 

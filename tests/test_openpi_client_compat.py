@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from xicm.core.isolated_env import EnvSpec, env_python
+from xicm.lerobot.isolated_env import EnvSpec, env_python
 from xicm.serving.server import PolicyServer
 from xicm.serving.wire import unpack
 

@@ -9,7 +9,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def test_every_python_package_folder_is_listed_in_pyproject():
     listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
     found = {"xicm"}
-    for top in ("core", "plugins", "conf", "export", "vla", "serving"):
+    for top in ("core", "plugins", "conf", "export", "vla", "serving", "report", "lerobot"):
         for init in (ROOT / top).rglob("__init__.py"):
             if "assets" in init.parts:
                 continue
@@ -54,7 +54,7 @@ def test_a_wheel_install_carries_configs_assets_and_plugins(tmp_path):
     wheel = next(tmp_path.glob("xicm-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
     assert "xicm/conf/config.yaml" in names and "xicm/conf/llm/gemma3_270m.yaml" in names
-    assert {"xicm/core/paper_table2.yaml", "xicm/core/xicm_logs.yaml", "xicm/core/templates/run.html.j2", "xicm/core/templates/sweep.html.j2"} <= set(names)
+    assert {"xicm/report/paper_table2.yaml", "xicm/report/xicm_logs.yaml", "xicm/report/templates/run.html.j2", "xicm/report/templates/sweep.html.j2"} <= set(names)
     assert any(n.startswith("xicm/plugins/simulators/sapien/assets/panda/") and n.endswith(".urdf") for n in names)
     assert not any(n.startswith(("xicm/tests/", "xicm/.venv/")) for n in names)
     target = tmp_path / "site"

@@ -3,7 +3,7 @@
 import pytest
 from scipy.stats import binomtest
 
-from xicm.core.paired import mcnemar_exact, paired_comparison, paired_markdown
+from xicm.report.paired import mcnemar_exact, paired_comparison, paired_markdown
 
 
 def row(task, seed, episode, success):
@@ -28,7 +28,7 @@ def test_only_common_episodes_are_compared_per_task():
 
 
 def test_paired_command_needs_two_runs(capsys):
-    from xicm.core.cli import report_main
+    from xicm.report.cli import main as report_main
 
     with pytest.raises(SystemExit) as done:
         report_main(["--paired", "only_one_run"])

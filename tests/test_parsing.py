@@ -110,3 +110,29 @@ def test_xicm_reading_falls_back_to_its_default_actions():
     for text in ("I would move the arm to the drawer.", "", None, "[ , ]"):
         one, why = parsing.parse_actions_xicm(text, WS)
         assert one == [default] and "one default action" in why, text
+
+
+def test_later_action_lists_are_read_up_to_26_actions_as_xicm_reads_the_whole_reply():
+    """X-ICM's regex runs over the whole reply and its agent keeps the first 26 actions; every
+    reading here does the same when the LLM returns the whole reply (stop_at_action_list: false)."""
+    first = "[" + ", ".join(f"[{i}, 1, 2, 0, 36, 36, 1]" for i in range(20)) + "]"
+    later = "[" + ", ".join(f"[{i}, 9, 9, 0, 36, 36, 0]" for i in range(20, 30)) + "]"
+    reply = f"{first}\nThen:\n{later}"
+    expected = [i for i in range(20)] + [20, 21, 22, 23, 24, 25]
+    for actions in (
+        parsing.parse_actions(reply, WS),
+        parsing.parse_actions(reply, WS, partial=True),
+        parsing.parse_actions_xicm(reply, WS)[0],
+    ):
+        assert len(actions) == parsing.MAX_ACTIONS == 26
+        assert [encoding.position_to_voxel(a.position, WS)[0] for a in actions] == expected
+        assert [a.gripper_open for a in actions[19:21]] == [True, False]
+
+
+def test_first_list_only_keeps_what_stop_at_action_list_leaves():
+    from xicm.plugins.llms.stopping import first_list_only
+
+    reply = "Plan: [[1, 2, 3, 0, 36, 36, 1]] and again [[4, 5, 6, 0, 36, 36, 0]]"
+    assert first_list_only(reply) == "Plan: [[1, 2, 3, 0, 36, 36, 1]]"
+    assert first_list_only("[1, 2, 3, 0, 36, 36, 1] no outer list") == "[1, 2, 3, 0, 36, 36, 1] no outer list"
+    assert len(parsing.parse_actions(first_list_only(reply), WS)) == 1 and len(parsing.parse_actions(reply, WS)) == 2

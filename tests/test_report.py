@@ -1,6 +1,6 @@
 import pytest
 
-from xicm.core import report
+from xicm.report import summary as report
 
 
 def _rows(task, seed, outcomes):
@@ -71,7 +71,7 @@ def test_seconds_per_episode_per_stage():
 
 
 def test_report_command_has_help_and_refuses_a_folder_without_runs(tmp_path, capsys):
-    from xicm.core.cli import report_main
+    from xicm.report.cli import main as report_main
 
     with pytest.raises(SystemExit) as done:
         report_main(["--help"])

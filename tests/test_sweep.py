@@ -6,9 +6,9 @@ import re
 
 import pytest
 
-from xicm.core.cli import report_main
+from xicm.report.cli import main as report_main
 from xicm.core.run_dir import find_runs
-from xicm.core.sweep import collect_sweep
+from xicm.report.sweep import collect_sweep
 
 SPLITS = {"a": "level1", "b": "level2"}
 

@@ -29,7 +29,7 @@ def test_a_run_logs_the_table2_table_and_its_level_bars(tmp_path, monkeypatch):
     import json
 
     from xicm.core.eval_job import _track_summary
-    from xicm.core.report import summarise
+    from xicm.report.summary import summarise
 
     monkeypatch.delenv("WANDB_MODE", raising=False)
     rows = [{"task": t, "seed": 0, "episode": i, "success": ok}

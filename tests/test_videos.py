@@ -16,7 +16,7 @@ from xicm.plugins.policies.xicm.policy import XICMPolicy
 from xicm.core.episode import run_episode
 from xicm.core.interfaces import LLM
 from xicm.core.plugins import get_registry
-from xicm.core.report import media_lines
+from xicm.report.summary import media_lines
 from xicm.core.types import Demo, KeyAction
 from xicm.core.video import VideoSettings
 from xicm.plugins.policies.oracle import OraclePolicy

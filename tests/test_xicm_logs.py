@@ -1,4 +1,4 @@
-"""X-ICM's own per-episode logs (core/xicm_logs.yaml): every name is one of our 41 tasks, every
+"""X-ICM's own per-episode logs (report/xicm_logs.yaml): every name is one of our 41 tasks, every
 transcribed seed agrees with the three records upstream printed for it, the per-task means give
 back the paper's per-level figures, and bad entries are refused with one sentence."""
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
-from xicm.core import table2, xicm_logs
+from xicm.report import table2, xicm_logs
 
 ROOT = Path(__file__).resolve().parents[1]
 

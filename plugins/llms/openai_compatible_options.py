@@ -25,3 +25,6 @@ class OpenAICompatibleOptions:
     retries: int = field(default=3, metadata=at_least(0))
     grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))
     server: str = field(default="vllm", metadata=one_of(*SERVERS))
+    #: true: the reply is cut after its first action list (as transformers_local's option does);
+    #: false: the whole reply, every later list included, as X-ICM reads it
+    stop_at_action_list: bool = False

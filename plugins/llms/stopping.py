@@ -52,6 +52,13 @@ def action_list_end(text: str) -> int | None:
     return None
 
 
+def first_list_only(text: str) -> str:
+    """The text cut just after its first nested action list (the whole text if it has none): the
+    reply `stop_at_action_list` leaves, for engines that return whole replies."""
+    end = action_list_end(text)
+    return text if end is None else text[:end]
+
+
 def _repeat_spans(text: str) -> tuple[int, int, int] | None:
     """(groups up to and including the repeated one, index past it, index past its repeat), or None."""
     previous = None

@@ -56,7 +56,8 @@ stop_at_action_list (True)
     End the reply once its action list is closed (`xicm.plugins.llms.stopping.action_list_end`:
     the first nested ``[[...], ...]`` holding a 7-integer group); the text is cut there. The
     text up to there is plain generate's; only what the model would have written after it on
-    the same line is not generated.
+    the same line is not generated. False keeps the whole reply, later lists too, as X-ICM's
+    agent reads it (its regex runs over the whole reply, at most 26 actions): the paper presets.
 on_repeated_action ("decode")
     What happens when the reply writes an action equal to the action before it (a greedy small
     model that has written its plan tends to repeat its last action up to max_new_tokens);

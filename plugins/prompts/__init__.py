@@ -1,1 +1,1 @@
-"""prompts."""
+"""Prompt builders: demos and query -> chat messages (xicm, xicm_paper)."""

@@ -14,6 +14,8 @@ system message says what X-ICM's says, in our words. Integers come from xicm.cor
 Options:
     system_prompt: replaces the default system message (a string; may be empty to send none).
     objects: paper (X-ICM's per-task objects) | all (every object of the task, under our names).
+    all_labels: with objects: paper, also X-ICM's labels of scene parts our scene has as parts of
+        their own (xicm_paper_objects.PARTS; the policy asks the detector for them: scene_parts).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from xicm.core.interfaces import Box, PromptBuilder
 from xicm.core.schema import one_of
 from xicm.core.types import Demo, Prompt, Query
 
-from .xicm_paper_objects import paper_objects
+from .xicm_paper_objects import paper_objects, part_names
 
 SYSTEM_PROMPT = (
     "You are controlling a Franka Panda arm fitted with a parallel gripper. "
@@ -39,9 +41,11 @@ SYSTEM_PROMPT = (
 )
 
 
-def observation_text(task: str, instruction: str, objects: dict, workspace: Box, which: str) -> str:
+def observation_text(
+    task: str, instruction: str, objects: dict, workspace: Box, which: str, all_labels: bool = False
+) -> str:
     """"['instruction': {instruction}, {'label': [x, y, z], ...}]" (no quotes around the instruction)."""
-    shown = paper_objects(task, objects) if which == "paper" else dict(objects)
+    shown = paper_objects(task, objects, all_labels) if which == "paper" else dict(objects)
     voxels = {label: list(encoding.position_to_voxel(xyz, workspace)) for label, xyz in shown.items()}
     return f"['instruction': {instruction.strip()}, {voxels!r}]"
 
@@ -50,20 +54,27 @@ def observation_text(task: str, instruction: str, objects: dict, workspace: Box,
 class XicmPaperPromptOptions:
     system_prompt: Optional[str] = None  # None: SYSTEM_PROMPT; "" sends no system message
     objects: str = field(default="paper", metadata=one_of("paper", "all"))
+    all_labels: bool = False  # also X-ICM's labels of scene parts our scene has (objects: paper)
 
 
 class XicmPaperPromptBuilder(PromptBuilder):
-    def __init__(self, system_prompt: str | None = None, objects: str = "paper"):
+    def __init__(self, system_prompt: str | None = None, objects: str = "paper", all_labels: bool = False):
         self.system_prompt = SYSTEM_PROMPT if system_prompt is None else str(system_prompt)
         self.objects = objects
+        self.all_labels = bool(all_labels) and objects == "paper"
+
+    def scene_parts(self, task: str) -> list[str]:
+        return part_names(task) if self.all_labels else []
 
     def build(self, demos: list[Demo], query: Query, workspace: Box) -> Prompt:
+        def obs_text(task: str, instruction: str, objects: dict) -> str:
+            return observation_text(task, instruction, objects, workspace, self.objects, self.all_labels)
+
         text = "".join(
-            f"{observation_text(d.task, d.instruction, d.objects, workspace, self.objects)}>"
-            f"{encoding.format_actions(d.key_actions, workspace)}, "
+            f"{obs_text(d.task, d.instruction, d.objects)}>{encoding.format_actions(d.key_actions, workspace)}, "
             for d in demos
         )
-        text += observation_text(query.task, query.instruction, query.objects, workspace, self.objects) + ">"
+        text += obs_text(query.task, query.instruction, query.objects) + ">"
         messages = [{"role": "system", "content": self.system_prompt}] if self.system_prompt else []
         messages.append({"role": "user", "content": text})
         return Prompt(messages=messages, demos=list(demos), query=query, workspace=workspace)

@@ -5,6 +5,12 @@ prints each under its own label. Here each entry is an ordered list of (pattern,
 is matched (fnmatch) against our episode's object names, the first not-yet-used match gets the
 label. Entries keep X-ICM's order. Comments say where our objects differ from RLBench's and how
 they were mapped; an upstream object with no counterpart here is left out (comment says so).
+
+X-ICM also labels parts of objects. Where our scene has the part as a scene part of its own (a
+segment that is not one of the task's objects), its entry names it and `PARTS` lists it: it is
+shown only with `all_labels` (prompt.all_labels), its position found by the detector as any
+object's. Of X-ICM's 15 part labels missing from the default lists, one has such a part here
+(beat_the_buzz's "cube": the wire's stand); the others have none (comments say which).
 """
 
 from __future__ import annotations
@@ -51,7 +57,8 @@ PAPER_OBJECTS: dict[str, tuple[tuple[str, str], ...]] = {
         ("* spoke", "third spok"),
     ),
     "stack_cups": (("* cup", "first cup"), ("* cup", "second cup"), ("* cup", "third cup")),
-    # RLBench has four mugs and three holder spokes; ours three cups and one holder object.
+    # RLBench has four mugs and three holder spokes; ours three cups and one holder object with no
+    # spoke parts: "forth cup", "second holder", "third holder" left out.
     "place_cups": (
         ("* cup", "first cup"),
         ("* cup", "second cup"),
@@ -69,19 +76,22 @@ PAPER_OBJECTS: dict[str, tuple[tuple[str, str], ...]] = {
         ("tail target", "rope head tail"),
         ("rope tail", "rope tail"),
     ),
-    # RLBench's oven door has no counterpart (our "oven" is the whole body): left out.
+    # RLBench's oven door ("oven door") has no counterpart (our "oven" is one body): left out.
     # Knobs 8 and 9 are taken as left and right.
     "turn_oven_on": (("left oven knob", "first oven knob"), ("right oven knob", "second oven knob")),
-    # RLBench's wand is X-ICM's "pole"; its "Cuboid" and the wand's sub-part have no counterpart: left out.
-    "beat_the_buzz": (("wand", "pole"),),
-    # RLBench's waterer base has no counterpart: left out.
+    # RLBench's "Cuboid" (a static part, labelled "cube") is the wire's stand: ours is the base and
+    # posts "buzz wire stand" (a part, shown with all_labels). Its wand is X-ICM's "pole"; the wand's
+    # sub-part "pole head" has no counterpart (our wand is one body): left out.
+    "beat_the_buzz": (("buzz wire stand", "cube"), ("wand", "pole")),
+    # RLBench's waterer base has no counterpart (no separate base here): left out.
     "water_plants": (("watering can", "waterer"), ("plant", "plant")),
     # Our wall socket is part of RLBench's wall; the wall itself is the counterpart.
     "unplug_charger": (("charger", "charger"), ("wall", "wall")),
     "phone_on_base": (("phone", "phone"), ("phone base", "phone case")),
-    # RLBench's "toilet_seat_up_toilet" is the same body as its "toilet": only the latter is kept.
+    # RLBench's "toilet_seat_up_toilet" (labelled "toilet seat up_toilet") is a part of its toilet
+    # model; our toilet is one body with no such part: left out.
     "toilet_seat_down": (("toilet seat", "toilet seat up_seat"), ("toilet", "toilet")),
-    # RLBench's button, top plate and wrap are one button here.
+    # RLBench's button, top plate and wrap ("button topPlate", "button wrap") are one button here: left out.
     "lamp_off": (("lamp button", "button"),),
     "lamp_on": (("lamp button", "button"),),
     "put_books_on_bookshelf": (
@@ -95,23 +105,34 @@ PAPER_OBJECTS: dict[str, tuple[tuple[str, str], ...]] = {
     "put_rubbish_in_bin": (("rubbish", "rubbish"), ("bin", "bin")),
     "take_usb_out_of_computer": (("computer", "computer"), ("usb stick", "usb")),
     "take_lid_off_saucepan": (("saucepan", "saucepan"), ("saucepan lid", "saucepan lid")),
-    # RLBench's two rack pillars: our rack is one "dish rack" object (second pillar left out).
+    # RLBench's two rack pillars: our rack is one "dish rack" object and its pillars are grouped by
+    # colour (black / red / purple rack), so no single pillar: "second dish rack" left out.
     "take_plate_off_colored_dish_rack": (("plate", "plate"), ("dish rack", "first dish rack")),
     "close_fridge": (("fridge", "fridge base"), ("fridge top door", "fridge top door"), ("fridge bottom door", "fridge bottom door")),
     "close_microwave": (("microwave door", "microwave door"), ("microwave", "microwave frame")),
-    # RLBench's laptop holder has no counterpart: left out.
+    # RLBench's laptop holder ("laptop holder") has no counterpart: left out.
     "close_laptop_lid": (("laptop lid", "lid"), ("laptop", "laptop base")),
-    # RLBench's stand base is part of our stand: left out.
+    # RLBench's stand base ("stand_base") is part of our stand, one body: left out.
     "put_toilet_roll_on_stand": (("toilet roll", "toilet roll"), ("toilet roll stand", "holder")),
     "put_knife_on_chopping_board": (("knife", "knife"), ("chopping board", "chopping board")),
 }
 
 
-def paper_objects(task: str, objects: dict) -> dict:
+#: (task, label) of the entries that name a scene part, not a task object (shown with all_labels)
+PARTS: frozenset[tuple[str, str]] = frozenset({("beat_the_buzz", "cube")})
+
+
+def part_names(task: str) -> list[str]:
+    """The scene parts (exact segment names) whose labels all_labels adds for this task."""
+    return [pattern for pattern, label in PAPER_OBJECTS.get(task, ()) if (task, label) in PARTS]
+
+
+def paper_objects(task: str, objects: dict, all_labels: bool = False) -> dict:
     """{label: position} for the objects X-ICM names in this task, in its order.
 
     A task missing from the table (e.g. a third-party one) keeps all its objects under their own
     names: with no hand-picked list, the task's own declared objects are the closest choice.
+    all_labels adds the labels of scene parts (PARTS) when `objects` holds them.
     """
     entries = PAPER_OBJECTS.get(task)
     if entries is None:
@@ -119,6 +140,8 @@ def paper_objects(task: str, objects: dict) -> dict:
     chosen: dict = {}
     used: set = set()
     for pattern, label in entries:
+        if not all_labels and (task, label) in PARTS:
+            continue
         name = next((n for n in objects if n not in used and fnmatchcase(n, pattern)), None)
         if name is not None:
             used.add(name)

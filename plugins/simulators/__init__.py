@@ -1,1 +1,1 @@
-"""simulators."""
+"""Simulators: scenes, cameras and control behind core's Simulator interface (sapien)."""

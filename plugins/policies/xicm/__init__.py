@@ -10,7 +10,8 @@ from omegaconf import MISSING
 
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import PolicyContext
-from xicm.core.schema import at_least
+from xicm.core.encoding import KEYFRAME_RULES
+from xicm.core.schema import at_least, one_of
 
 
 @dataclass
@@ -23,6 +24,9 @@ class XicmPolicyOptions:
     partial_replies: bool = False  # run a reply's valid actions up to its first invalid one, then end (X-ICM does)
     #: read replies as X-ICM's agent does: an unreadable reply becomes its default actions, not a parse_error
     parse_fallback: bool = False
+    #: the demos' key frames: ours (as stored in the pool) | xicm (re-derived from the stored
+    #: trajectories with X-ICM's rule, whose stop test at frames 0-1 reads the trajectory's end)
+    keyframes: str = field(default="ours", metadata=one_of(*KEYFRAME_RULES))
 
 
 def create_xicm_policy(
@@ -34,12 +38,13 @@ def create_xicm_policy(
     rerank: bool = False,
     partial_replies: bool = False,
     parse_fallback: bool = False,
+    keyframes: str = "ours",
 ):
     from . import parts
     from .policy import XICMPolicy
 
     cfg, registry = context.cfg, context.registry
-    demos = parts.load_demos(pool, list(pool_tasks))
+    demos = parts.load_demos(pool, list(pool_tasks), keyframes)
     retriever = parts.build_retriever(cfg, registry, parts.build_encoder(cfg, registry))
     retriever.prepare(demos)
     return XICMPolicy(

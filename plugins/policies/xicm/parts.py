@@ -32,13 +32,39 @@ def check_parts(cfg: DictConfig, registry: Registry, pool: str) -> None:
     require_pool(pool)
 
 
-def load_demos(path: str | Path, tasks: list[str]):
+def load_demos(path: str | Path, tasks: list[str], keyframes: str = "ours"):
+    """The pool's demos of `tasks`; keyframes: xicm re-derives their key actions from the stored
+    trajectories under X-ICM's key-frame rule (rederive_key_actions)."""
     from xicm.core.dataset import load_pool
 
-    pool = load_pool(path, tasks=tasks, with_images=True)
+    pool = load_pool(path, tasks=tasks, with_images=True, with_trajectories=keyframes != "ours")
     if not pool:
         raise ConfigError(f"the pool {path} holds no demos of {tasks}; collect them first")
+    if keyframes != "ours":
+        rederive_key_actions(pool, keyframes, str(path))
     return pool
+
+
+def rederive_key_actions(demos, rule: str, where: str = "the pool") -> list[str]:
+    """Replace each demo's key actions by those of key-frame rule `rule` (core/encoding.py) where
+    its key frames differ from the pool's rule ("ours"); the ids of the demos that changed.
+    Trajectories are dropped afterwards (only the key actions are needed)."""
+    from xicm.core import encoding
+
+    changed = []
+    for demo in demos:
+        traj = demo.trajectory
+        if traj is None:
+            raise ConfigError(
+                f"demo {demo.demo_id} of {where} has no stored trajectory, so policy.keyframes={rule} "
+                "cannot re-derive its key frames; collect the pool again or use policy.keyframes=ours"
+            )
+        ours = encoding.keyframe_indices(traj.joint_velocities, traj.gripper_open)
+        if encoding.keyframe_indices(traj.joint_velocities, traj.gripper_open, rule=rule) != ours:
+            demo.key_actions = encoding.key_actions_from_trajectory(traj, rule=rule)
+            changed.append(demo.demo_id)
+        demo.trajectory = None
+    return changed
 
 
 def build_encoder(cfg: DictConfig, registry: Registry):
@@ -57,7 +83,7 @@ def build_llm(cfg: DictConfig, registry: Registry):
     if check_ready is not None:
         check_ready()
     if cfg.llm_cache.enabled and getattr(llm, "deterministic", False):
-        from xicm.core.llm_cache import CachedLLM
+        from xicm.plugins.policies.xicm.llm_cache import CachedLLM
 
         llm = CachedLLM(llm, cfg.llm_cache.path, enabled=True)
     return llm

@@ -54,7 +54,9 @@ class XICMPolicy(Policy):
         if self.max_llm_calls is not None and self.llm_calls >= self.max_llm_calls:
             raise EpisodeFailure("max_llm_calls", f"no success after {self.llm_calls} LLM calls")
         with self._stage("detect", "detector_error"):
-            objects = self.detector.detect(obs, list(obs.object_names))
+            scene_parts = getattr(self.prompt_builder, "scene_parts", None)  # optional (duck-typed builders)
+            parts = [n for n in (scene_parts(self.task) if scene_parts else []) if n not in obs.object_names]
+            objects = self.detector.detect(obs, list(obs.object_names) + parts)
         camera = obs.first_camera()  # the one the pool's pictures come from
         missing = tuple(n for n in obs.object_names if n not in objects)
         query = Query(self.task, obs.instruction, objects, None if camera is None else obs.cameras[camera].rgb, missing)

@@ -14,6 +14,11 @@ SUCCESS_CHECKS = ("per_action", "per_frame")
 SCENE_RANGES = ("ours", "rlbench")
 #: where the Panda stands and how it starts (scene.py ROBOT_PLACEMENTS): ours, or RLBench's as recorded
 ROBOTS = ("ours", "rlbench")
+#: which key-action targets are refused before a move (SapienSimulator.refused_target): grid: outside
+#: the prompt's grid box or below the table top (`unreachable`); rlbench: RLBench's workspace
+#: rule where it is known, z from the table top to 1 m above it (`out_of_workspace`), and the grid
+#: box's x/y (RLBench's x/y extents come from a shape in its binary scene file: docs/AGNOSTOS.md)
+WORKSPACE_CHECKS = ("grid", "rlbench")
 CAMERA_NAMES = ("front", "left_shoulder", "right_shoulder", "overhead", "wrist")
 #: per-step control modes of `step(action)` (spec.py declares their columns, control_modes.py their maths)
 CONTROL_MODES = tuple(STEP_MODES)
@@ -91,6 +96,7 @@ class SapienOptions:
     #: success_check: per_frame: a move that met success still runs its gripper command, then success
     #: is read once, as X-ICM's RLBench does (false: the command is skipped and success stands)
     gripper_after_success: bool = False
+    workspace_check: str = field(default="grid", metadata=one_of(*WORKSPACE_CHECKS))
     #: scenes: rlbench: draws of one episode's scene before it counts as unsolvable
     max_scene_draws: int = field(default=20, metadata=above(0))
 

@@ -79,9 +79,6 @@ class Panda:
     def arm_qpos(self) -> np.ndarray:
         return self.articulation.get_qpos()[:ARM_JOINTS].copy()
 
-    def arm_qvel(self) -> np.ndarray:
-        return self.articulation.get_qvel()[:ARM_JOINTS].copy()
-
     def finger_width(self) -> float:
         return float(np.sum(self.articulation.get_qpos()[ARM_JOINTS:]))
 

@@ -41,6 +41,9 @@ ROBOT_PLACEMENTS = {
 }
 #: (low, high) corner of the box the 100^3 text grid covers (the upstream AGNOSTOS grid)
 WORKSPACE = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
+#: RLBench's workspace in z (rlbench/backend/scene.py): from the table top (its `workspace` shape's
+#: position) to 1 m above it; targets outside raise InvalidActionError (simulator.workspace_check: rlbench)
+RLBENCH_WORKSPACE_Z = (TABLE_TOP_Z, TABLE_TOP_Z + 1.0)
 
 
 class World:

@@ -26,9 +26,9 @@ from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
 from .grasp import GraspAttacher
 from .objects import ObjectSet
-from .options import GRASP_MODES, SCENE_RANGES, SUCCESS_CHECKS, frames_per_step, sizes_per_camera
+from .options import GRASP_MODES, SCENE_RANGES, SUCCESS_CHECKS, WORKSPACE_CHECKS, frames_per_step, sizes_per_camera
 from .robot import ARM_JOINTS
-from .scene import TABLE_TOP_Z, WORKSPACE, World
+from .scene import RLBENCH_WORKSPACE_Z, TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
 
 
@@ -59,6 +59,9 @@ class SapienSimulator(Simulator):
         robot: 'ours' or 'rlbench': where the Panda stands and its start joints (scene.py ROBOT_PLACEMENTS).
         gripper_after_success: with per_frame, a key action whose move met success still runs its
             gripper command, then success is read once (X-ICM's RLBench); false skips the command.
+        workspace_check: 'grid' (a target off the grid box or below the table top is `unreachable`)
+            or 'rlbench' (RLBench's z rule, table top to +1 m, refuses with `out_of_workspace`;
+            x/y stay the grid box's: options.py WORKSPACE_CHECKS).
         tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
             those registered for simulator "sapien", handed over by Registry.create_simulator.
     """
@@ -85,6 +88,7 @@ class SapienSimulator(Simulator):
         max_scene_draws: int = 20,
         robot: str = "ours",
         gripper_after_success: bool = False,
+        workspace_check: str = "grid",
         *,
         tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
     ):
@@ -118,6 +122,10 @@ class SapienSimulator(Simulator):
             raise ValueError(why)
         self.per_frame_success = success_check == "per_frame"
         self.gripper_after_success = bool(gripper_after_success)
+        if workspace_check not in WORKSPACE_CHECKS:
+            why = f"simulator option workspace_check is '{workspace_check}'; allowed: {', '.join(WORKSPACE_CHECKS)}"
+            raise ValueError(why)
+        self.workspace_check = workspace_check
         if grasp == "attach":
             self.world.grasp = self.controller.grasp = GraspAttacher(self.world.scene, self.robot)
         if scenes not in SCENE_RANGES:
@@ -261,19 +269,28 @@ class SapienSimulator(Simulator):
         return {n: tuple(float(v) for v in np.mean(c, axis=0)) for n, c in out.items()}
 
     # --- acting ----------------------------------------------------------------------------
-    def check_pose(self, action: KeyAction) -> str | None:
-        """Why the pose cannot be a target (one sentence), or None."""
+    def refused_target(self, action: KeyAction) -> tuple[str, str] | None:
+        """(error kind, one sentence) when the pose cannot be a target, or None."""
         p = np.asarray(action.position, dtype=float)
         q = np.asarray(action.quat_wxyz, dtype=float)
         if p.shape != (3,) or q.shape != (4,) or not (np.all(np.isfinite(p)) and np.all(np.isfinite(q))):
-            return "the key action's position or quaternion is not a finite 3-vector / 4-vector"
+            return "unreachable", "the key action's position or quaternion is not a finite 3-vector / 4-vector"
         if np.linalg.norm(q) < 1e-6:
-            return "the key action's quaternion has zero length"
+            return "unreachable", "the key action's quaternion has zero length"
         lo, hi = (np.asarray(v) for v in self.workspace)
+        if self.workspace_check == "rlbench":
+            z_lo, z_hi = RLBENCH_WORKSPACE_Z
+            if not z_lo - 1e-6 <= p[2] <= z_hi + 1e-6:
+                return "out_of_workspace", (
+                    f"position {np.round(p, 3).tolist()} lies outside RLBench's workspace in z "
+                    f"({z_lo:g} to {z_hi:g} m: the table top to 1 m above it)"
+                )
+            lo, hi = lo.copy(), hi.copy()
+            lo[2], hi[2] = z_lo, z_hi  # x/y: the grid box's (RLBench's x/y extents are unknown here)
         if np.any(p < lo - 1e-6) or np.any(p > hi + 1e-6):
-            return f"position {np.round(p, 3).tolist()} lies outside the workspace box {lo.tolist()} to {hi.tolist()}"
+            return "unreachable", f"position {np.round(p, 3).tolist()} lies outside the workspace box {lo.tolist()} to {hi.tolist()}"
         if p[2] < TABLE_TOP_Z:
-            return f"position {np.round(p, 3).tolist()} is below the table top (z = {TABLE_TOP_Z} m)"
+            return "unreachable", f"position {np.round(p, 3).tolist()} is below the table top (z = {TABLE_TOP_Z} m)"
         return None
 
     def execute(self, action: KeyAction | JointAction) -> StepOutcome:
@@ -283,9 +300,9 @@ class SapienSimulator(Simulator):
                 return self._execute_joints(action)
             if self.controller.halted:  # succeeded in an earlier frame: nothing more to do
                 return StepOutcome(ok=True, success=True)
-            problem = self.check_pose(action)
-            if problem is not None:
-                return StepOutcome(False, self.is_success(), error_kind="unreachable", error_message=problem)
+            refused = self.refused_target(action)
+            if refused is not None:
+                return StepOutcome(False, self.is_success(), error_kind=refused[0], error_message=refused[1])
             q = np.asarray(action.quat_wxyz, dtype=float)
             target = sapien.Pose(np.asarray(action.position, dtype=float), q / np.linalg.norm(q))
             try:

@@ -5,7 +5,7 @@ It finds nothing meaningful; it exists so that the grounding_dino detector's who
 machine without the real weights. The tokenizer is a BERT word-piece tokenizer whose
 vocabulary is built locally from the given words.
 
-    python -m xicm.plugins.detectors.tiny_grounding_dino OUT_DIR [words ...]
+    python tests/tiny_grounding_dino.py OUT_DIR [words ...]
 """
 
 from __future__ import annotations

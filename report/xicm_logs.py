@@ -1,4 +1,4 @@
-"""X-ICM's own per-episode logs (core/xicm_logs.yaml, transcribed from its repository): per-task
+"""X-ICM's own per-episode logs (report/xicm_logs.yaml, transcribed from its repository): per-task
 success over its seeds, which gives the paper rows of the Table-2 layout their per-task cells, and
 how its episodes end (success, early end, all 25 key actions), to set beside ours."""
 

@@ -45,7 +45,7 @@ def resume_command(python: Path, output: Path, steps: int | None, extra: list[st
 
 
 def main() -> None:
-    from xicm.export.lerobot_env import env_python
+    from xicm.lerobot.env import env_python
 
     argv = sys.argv[1:]
     extra = argv[argv.index("--") + 1:] if "--" in argv else []

@@ -1,7 +1,7 @@
 """The paper's Table 2 layout: the 23 unseen AGNOSTOS tasks as columns (paper order), then
-Level-1 / Level-2 / All; our run's row beside the paper's published rows (core/paper_table2.yaml),
+Level-1 / Level-2 / All; our run's row beside the paper's published rows (report/paper_table2.yaml),
 which come from another simulator and are always labelled with their source. The X-ICM rows take
-their per-task cells from X-ICM's own logs (core/xicm_logs.yaml)."""
+their per-task cells from X-ICM's own logs (report/xicm_logs.yaml)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from xicm.core import xicm_logs
-from xicm.core.report import summarise, wilson_interval
+from xicm.report import xicm_logs
+from xicm.report.summary import summarise, wilson_interval
 
 PAPER_TABLE = Path(__file__).with_name("paper_table2.yaml")
 LEVELS = ("Level-1", "Level-2", "All")
@@ -20,7 +20,7 @@ LEVELS = ("Level-1", "Level-2", "All")
 @functools.lru_cache(maxsize=1)
 def paper_table() -> dict[str, Any]:
     """{'source', 'citation', 'level1', 'level2', 'rows': [{'name', 'level1', 'level2', 'all', 'all_std',
-    'tasks', 'task_notes'}]}; a row with logs in core/xicm_logs.yaml gets its per-task means from them
+    'tasks', 'task_notes'}]}; a row with logs in report/xicm_logs.yaml gets its per-task means from them
     and a note per cell (seeds, std, source)."""
     import yaml
 

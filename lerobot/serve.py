@@ -1,10 +1,10 @@
 """xicm-serve-lerobot: serve a LeRobot checkpoint over openpi's websocket protocol from the
-lerobot environment (export/lerobot_env.py builds it once per machine), so `xicm-eval
+lerobot environment (lerobot/env.py builds it once per machine), so `xicm-eval
 policy=remote` can evaluate it:
 
     xicm-serve-lerobot CHECKPOINT [--host H] [--port P] [--control-mode joint_pos] [--api-key-env VAR]
 
-The server script (lerobot_policy_server.py) runs under that environment's interpreter with
+The server script (policy_server.py) runs under that environment's interpreter with
 xicm's serving package importable through a one-link folder on PYTHONPATH (the package itself
 is not installed there: its other dependencies would clash).
 """
@@ -39,7 +39,7 @@ def server_command(python: Path, checkpoint: str, host: str, port: int, control_
                    max_batch: int = 1, limits: tuple[str, ...] = ()) -> list[str]:
     """The server script's command line; `limits` are its --api-key-env / --max-sessions /
     --idle-timeout-s arguments as given (a key's variable NAME only: the key stays in the environment)."""
-    script = Path(__file__).with_name("lerobot_policy_server.py")
+    script = Path(__file__).with_name("policy_server.py")
     cmd = [str(python), str(script), "--checkpoint", str(checkpoint), "--host", host, "--port", str(port),
            "--device", device, "--max-batch", str(max_batch), *limits]
     return cmd + (["--control-mode", control_mode] if control_mode else [])
@@ -57,7 +57,7 @@ def start(python: Path, cache: Path, checkpoint: str, host: str = "127.0.0.1", p
 
 
 def main() -> None:
-    from xicm.export.lerobot_env import env_python
+    from xicm.lerobot.env import env_python
 
     parser = argparse.ArgumentParser(prog="xicm-serve-lerobot", description=__doc__.split("\n\n")[0])
     parser.add_argument("checkpoint", help="a LeRobot pretrained_model folder (lerobot-train writes checkpoints/*/pretrained_model)")

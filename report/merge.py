@@ -16,8 +16,8 @@ from typing import Any
 
 from xicm.core.atomic import write_atomic, write_json_atomic
 from xicm.core.errors import XicmError
-from xicm.core.report import std_ddof, write_report
 from xicm.core.run_dir import EPISODES, META, MERGE_MAY_DIFFER, RunDir, flatten, outside_identity
+from xicm.report.summary import std_ddof, write_report
 
 
 def merge_runs(out_dir: Path, run_dirs: list[Path]) -> dict[str, Any]:

@@ -1,7 +1,7 @@
 """Load a LeRobot dataset with lerobot's own LeRobotDataset and dump what a check needs.
 
-Runs inside the lerobot environment (lerobot_env.py): imports only the standard library,
-numpy and lerobot. Usage: python lerobot_reader.py ROOT REPO_ID OUT.npz
+Runs inside the lerobot environment (env.py): imports only the standard library,
+numpy and lerobot. Usage: python reader.py ROOT REPO_ID OUT.npz
 
 OUT.npz holds: num_frames, num_episodes, features (JSON text), tasks (each episode's task
 text), episodes (JSON text: each episode's row of meta/episodes as lerobot reads it, its

@@ -1,8 +1,8 @@
 """Serve a LeRobot checkpoint in openpi's websocket dialect. Runs INSIDE the lerobot environment
-(xicm's own cannot import lerobot: export/lerobot_env.py says why), with xicm's serving package
-on PYTHONPATH (serving/lerobot_serve.py starts it that way):
+(xicm's own cannot import lerobot: lerobot/env.py says why), with xicm's serving package
+on PYTHONPATH (lerobot/serve.py starts it that way):
 
-    python lerobot_policy_server.py --checkpoint DIR [--host H] [--port P] [--control-mode S] [--api-key-env VAR]
+    python policy_server.py --checkpoint DIR [--host H] [--port P] [--control-mode S] [--api-key-env VAR]
 
 A request holds LeRobot's own keys: "observation.images.<camera>" (uint8 H x W x 3),
 "observation.state" (float vector) and "task" (the instruction); the reply is

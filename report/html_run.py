@@ -10,10 +10,10 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from xicm.core import report_figures, report_media, table2
 from xicm.core.atomic import write_atomic
-from xicm.core.report import stage_seconds, std_ddof, summarise
 from xicm.core.run_dir import RunDir
+from xicm.report import figures, media, require, table2
+from xicm.report.summary import stage_seconds, std_ddof, summarise
 
 REPORT_HTML = "report.html"
 INLINE_VIDEO_MB = 2.0  # per video; larger ones are linked (conf/config.yaml report.inline_video_mb)
@@ -21,8 +21,7 @@ INLINE_VIDEO_TOTAL_MB = 64  # all videos of one page together
 
 
 def render(template: str, context: dict[str, Any]) -> str:
-    import jinja2
-
+    jinja2 = require("jinja2", "an HTML report")
     env = jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(Path(__file__).with_name("templates"))),
         autoescape=True,
@@ -31,7 +30,7 @@ def render(template: str, context: dict[str, Any]) -> str:
         lstrip_blocks=True,
     )
     env.filters["pct"] = lambda v: "–" if v is None or v != v else f"{v:.1f}"
-    env.filters["mb"] = lambda b: f"{b / report_media.MB:.2f} MB"
+    env.filters["mb"] = lambda b: f"{b / media.MB:.2f} MB"
     return env.get_template(template).render(**context)
 
 
@@ -43,7 +42,7 @@ def _episode_key(row: dict[str, Any]) -> tuple[int, int]:
     return int(row["seed"]), int(row["episode"])
 
 
-def _episode(run_dir: Path, row: dict[str, Any], thumb_class: dict[str, str], budget: report_media.VideoBudget) -> dict[str, Any]:
+def _episode(run_dir: Path, row: dict[str, Any], thumb_class: dict[str, str], budget: media.VideoBudget) -> dict[str, Any]:
     """What the page shows of one episode row: its demos, video and transcript."""
     extra = row.get("extra") or {}
     return {
@@ -51,7 +50,7 @@ def _episode(run_dir: Path, row: dict[str, Any], thumb_class: dict[str, str], bu
         "retrieved": [{"id": d, "thumb": thumb_class.get(d)} for d in row.get("retrieved") or []],
         "video": budget.source(run_dir, extra["video"]) if extra.get("video") else None,
         "video_error": extra.get("video_error"),
-        "transcript": report_media.transcript(run_dir, extra.get("transcript")),
+        "transcript": media.transcript(run_dir, extra.get("transcript")),
         "seconds": (row.get("timings") or {}).get("total"),
     }
 
@@ -72,9 +71,9 @@ def run_context(run_dir: Path, inline_video_mb: float = INLINE_VIDEO_MB, pool: s
         by_task[r["task"]].append(r)
     seconds = [(t["task"], stage_seconds(by_task[t["task"]])) for t in summary["tasks"]]
 
-    thumbs, pool_note = report_media.demo_thumbnails(pool or config.get("pool_path"), run.path, (d for r in rows for d in r.get("retrieved") or []))
+    thumbs, pool_note = media.demo_thumbnails(pool or config.get("pool_path"), run.path, (d for r in rows for d in r.get("retrieved") or []))
     thumb_class = {demo: f"d{i}" for i, demo in enumerate(sorted(thumbs))}
-    budget = report_media.VideoBudget(int(inline_video_mb * report_media.MB), INLINE_VIDEO_TOTAL_MB * report_media.MB)
+    budget = media.VideoBudget(int(inline_video_mb * media.MB), INLINE_VIDEO_TOTAL_MB * media.MB)
     episodes = [
         {"task": t, "rows": [_episode(run.path, r, thumb_class, budget) for r in sorted(by_task[t["task"]], key=_episode_key)]}
         for t in summary["tasks"]
@@ -100,10 +99,10 @@ def run_context(run_dir: Path, inline_video_mb: float = INLINE_VIDEO_MB, pool: s
         "ours": ours,
         "our_source": f"ours, {simulator} (this run)",
         "paper": paper,
-        "level_svg": report_figures.level_bars([(label, our_levels)], paper_levels) if ours["groups"] else None,
-        "task_svg": report_figures.task_success(summary["tasks"]) if summary["tasks"] else None,
-        "errors_svg": report_figures.error_kinds(summary["tasks"]) if summary["tasks"] else None,
-        "stages_svg": report_figures.stage_seconds(seconds) if any(s for _, s in seconds) else None,
+        "level_svg": figures.level_bars([(label, our_levels)], paper_levels) if ours["groups"] else None,
+        "task_svg": figures.task_success(summary["tasks"]) if summary["tasks"] else None,
+        "errors_svg": figures.error_kinds(summary["tasks"]) if summary["tasks"] else None,
+        "stages_svg": figures.stage_seconds(seconds) if any(s for _, s in seconds) else None,
         "seconds": summary["seconds"],
         "task_seconds": {task: s["total"] for task, s in seconds if "total" in s},
         "episodes": episodes,

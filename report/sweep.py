@@ -17,8 +17,9 @@ from pathlib import Path
 from typing import Any
 
 from xicm.core.atomic import write_atomic, write_json_atomic
-from xicm.core.report import std_ddof, summarise
 from xicm.core.run_dir import RunDir, flatten, outside_identity
+from xicm.report import figures
+from xicm.report.summary import std_ddof, summarise
 
 SWEEP_FILES = ("sweep.md", "sweep.csv", "sweep.json", "sweep.png")  # written in the folder above the runs
 
@@ -118,11 +119,7 @@ def sweep_plot(sweep: dict[str, Any], path: Path) -> Path | None:
     """success vs the first axis; None when there is no axis to plot against."""
     if not sweep["axes"]:
         return None
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = figures.pyplot()
     x_key, others = sweep["axes"][0], sweep["axes"][1:]
     groups = group_names(sweep)
     lines: dict[str, list[tuple[Any, float, float]]] = {}

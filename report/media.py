@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from xicm.core.dataset import first_frames
+
 MB = 1024 * 1024
 THUMB_PIXELS = 96  # retrieved demos' first frames, longest side
 TRANSCRIPT_CHARS = 20_000  # per episode; the rest stays in the linked file
@@ -64,20 +66,15 @@ def demo_thumbnails(pool_path: str | None, run_dir: Path, demo_ids: Iterable[str
     if found is None:
         return {}, f"the demonstration pool {pool_path!r} is not reachable from here; first frames are not shown (pass --pool PATH)"
     try:
-        import h5py
         from PIL import Image
 
         out = {}
-        with h5py.File(found, "r") as f:
-            for demo in wanted:
-                key = f"demos/{demo}/first_rgb"
-                if key not in f:
-                    continue
-                image = Image.fromarray(f[key][()])
-                image.thumbnail((THUMB_PIXELS, THUMB_PIXELS))
-                buf = io.BytesIO()
-                image.save(buf, format="PNG", optimize=True)
-                out[demo] = data_uri("image/png", buf.getvalue())
+        for demo, frame in first_frames(found, wanted).items():
+            image = Image.fromarray(frame)
+            image.thumbnail((THUMB_PIXELS, THUMB_PIXELS))
+            buf = io.BytesIO()
+            image.save(buf, format="PNG", optimize=True)
+            out[demo] = data_uri("image/png", buf.getvalue())
     except Exception as exc:  # noqa: BLE001 - a broken pool only costs the pictures
         return {}, f"the demonstration pool {found} could not be read ({type(exc).__name__}: {exc}); first frames are not shown"
     missing = len(wanted) - len(out)

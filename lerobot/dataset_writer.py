@@ -1,4 +1,4 @@
-"""Staged episodes -> the LeRobot dataset at `out_dir`, written by lerobot itself (lerobot_writer.py
+"""Staged episodes -> the LeRobot dataset at `out_dir`, written by lerobot itself (writer.py
 in the lerobot environment) into a temp folder beside, then renamed into place."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 from xicm.core.atomic import write_dir_atomic, write_json_atomic
 from xicm.core.spaces import ControlSpec
 from xicm.export import features as feats
-from xicm.export.lerobot_env import check_ffmpeg, env_python, run_script
+from xicm.lerobot.env import check_ffmpeg, env_python, run_script
 
 ROBOT_TYPE = "franka_panda"
 
@@ -61,7 +61,7 @@ def write_dataset(
             "episode_metadata": episode_metadata,
         }
         write_json_atomic(manifest_path, manifest)
-        run_script(python, "lerobot_writer.py", str(manifest_path))
+        run_script(python, "writer.py", str(manifest_path))
 
     try:
         write_dir_atomic(out_dir, write)
@@ -70,9 +70,9 @@ def write_dataset(
 
 
 def read_dataset(root: Path, repo_id: str, out_npz: Path, cache: str | Path, log=print) -> None:
-    """Load the dataset with lerobot's own LeRobotDataset (lerobot_reader.py) and dump it to `out_npz`."""
+    """Load the dataset with lerobot's own LeRobotDataset (reader.py) and dump it to `out_npz`."""
     check_ffmpeg()
-    run_script(env_python(cache, log), "lerobot_reader.py", str(root), repo_id, str(out_npz))
+    run_script(env_python(cache, log), "reader.py", str(root), repo_id, str(out_npz))
 
 
 def dataset_size(root: Path) -> int:

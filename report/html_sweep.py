@@ -9,11 +9,11 @@ import os
 from pathlib import Path
 from typing import Any
 
-from xicm.core import report_figures, table2
 from xicm.core.atomic import write_atomic
-from xicm.core.html_report import REPORT_HTML, render
 from xicm.core.run_dir import RunDir
-from xicm.core.sweep import sortable, collect_sweep, group_names
+from xicm.report import figures, table2
+from xicm.report.html_run import REPORT_HTML, render
+from xicm.report.sweep import sortable, collect_sweep, group_names
 
 SWEEP_HTML = "sweep.html"
 PLOT_GROUP = "All"  # the group each axis plot shows; the table has every group
@@ -60,7 +60,7 @@ def sweep_context(root: Path, runs: list[Path]) -> dict[str, Any]:
     plots = []
     for axis in sweep["axes"]:
         xs = sorted({row[axis] for row in sweep["rows"]}, key=sortable)
-        plots.append({"axis": axis, "svg": report_figures.sweep_axis(axis_lines(sweep, axis), axis, xs, PLOT_GROUP)})
+        plots.append({"axis": axis, "svg": figures.sweep_axis(axis_lines(sweep, axis), axis, xs, PLOT_GROUP)})
     return {
         "title": f"xicm sweep: {Path(root).resolve().name}",
         "root": str(root),

@@ -1,9 +1,9 @@
 """Write staged episodes as a LeRobot dataset with lerobot's own writer.
 
-Runs inside the lerobot environment (lerobot_env.py), not in xicm's: imports only the
-standard library, numpy and lerobot. Usage: python lerobot_writer.py MANIFEST.json
+Runs inside the lerobot environment (env.py), not in xicm's: imports only the
+standard library, numpy and lerobot. Usage: python writer.py MANIFEST.json
 
-The manifest (written by xicm.export.dataset_writer) names the dataset (repo_id, root, fps,
+The manifest (written by xicm.lerobot.dataset_writer) names the dataset (repo_id, root, fps,
 robot_type, features, use_videos, vcodec), which staged array fills each feature (`columns`),
 and lists the staged episodes, each an .npz of arrays with T rows and the episode's task text
 under "instruction"; `rows` (null: all) lists, per episode, the staged rows that become frames;
@@ -43,7 +43,7 @@ def main(manifest_path: str) -> None:
         for t in rows:
             dataset.add_frame({**{key: column[t] for key, column in columns.items()}, "task": task})
         dataset.save_episode()
-        print(f"lerobot_writer: episode {n}/{len(manifest['episodes'])} ({len(rows)} frames)", flush=True)
+        print(f"writer.py: episode {n}/{len(manifest['episodes'])} ({len(rows)} frames)", flush=True)
     dataset.finalize()
 
 

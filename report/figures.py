@@ -6,35 +6,27 @@ import io
 from collections.abc import Sequence
 from typing import Any
 
+from xicm.report import require
+
 SPLIT_COLOURS = {"level1": "#4C72B0", "level2": "#DD8452", "seen": "#55A868"}
 OTHER_COLOUR = "#8C8C8C"
 
 
 def _svg(fig, name: str) -> str:
     """The figure as an <svg> element; `name` salts matplotlib's ids so figures on one page never share one."""
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     buf = io.StringIO()
-    with _rc(name):
+    with plt.rc_context({"svg.fonttype": "none", "svg.hashsalt": name}):
         fig.savefig(buf, format="svg", bbox_inches="tight")
     plt.close(fig)
     text = buf.getvalue()
     return text[text.index("<svg") :]
 
 
-def _rc(name: str):
-    import matplotlib
-
-    return matplotlib.rc_context({"svg.fonttype": "none", "svg.hashsalt": name})
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (no display), or ReportExtraMissing."""
+    require("matplotlib", "a report figure").use("Agg")
+    return require("matplotlib.pyplot", "a report figure")
 
 
 def _height(rows: int) -> float:
@@ -43,7 +35,7 @@ def _height(rows: int) -> float:
 
 def task_success(task_rows: Sequence[dict[str, Any]]) -> str:
     """One horizontal bar per task: success % (mean over seeds), whiskers = Wilson 95 % interval."""
-    plt = _plt()
+    plt = pyplot()
     rows = list(task_rows)[::-1]
     fig, ax = plt.subplots(figsize=(7, _height(len(rows))), dpi=100)
     y = range(len(rows))
@@ -60,7 +52,7 @@ def task_success(task_rows: Sequence[dict[str, Any]]) -> str:
 
 
 def _stacked(rows: Sequence[tuple[str, dict[str, float]]], xlabel: str, name: str, colours: dict[str, str] | None = None) -> str:
-    plt = _plt()
+    plt = pyplot()
     rows = list(rows)[::-1]
     keys: list[str] = []
     for _, parts in rows:
@@ -95,7 +87,7 @@ def stage_seconds(per_task: Sequence[tuple[str, dict[str, float]]]) -> str:
 
 def level_bars(ours: Sequence[tuple[str, dict[str, float]]], paper: Sequence[tuple[str, dict[str, float]]]) -> str:
     """Level-1 / Level-2 / All: our rows (solid, whiskers = Wilson 95 %) beside the paper's (hatched)."""
-    plt = _plt()
+    plt = pyplot()
     levels = ("Level-1", "Level-2", "All")
     series = [(name, values, False) for name, values in ours] + [(name, values, True) for name, values in paper]
     width = 0.8 / max(len(series), 1)
@@ -121,7 +113,7 @@ def level_bars(ours: Sequence[tuple[str, dict[str, float]]], paper: Sequence[tup
 def sweep_axis(lines: dict[str, list[tuple[Any, float, float, float]]], axis: str, xs: Sequence[Any], group: str) -> str:
     """Success against one swept key: one line per value of the other keys; points
     (x, mean, ci_low, ci_high), whiskers = Wilson 95 % interval over the pooled episodes."""
-    plt = _plt()
+    plt = pyplot()
     numeric = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in xs)
     fig, ax = plt.subplots(figsize=(6.5, 3.8), dpi=100)
     # lines with equal values would hide each other: shift each a little sideways

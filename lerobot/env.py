@@ -1,9 +1,9 @@
 """An isolated, cached Python environment holding `lerobot` (it cannot join xicm's own).
 
 lerobot 0.4.4 pins torch<2.11 and huggingface-hub<0.36, while xicm runs torch 2.13 and
-transformers 5. So the LeRobot writer and reader (lerobot_writer.py, lerobot_reader.py), the
-LeRobot policy server (serving/lerobot_policy_server.py) and lerobot's own training script run
-under a separate venv's interpreter, built once per requirement list (core/isolated_env.py):
+transformers 5. So the LeRobot writer and reader (writer.py, reader.py), the
+LeRobot policy server (lerobot/policy_server.py) and lerobot's own training script run
+under a separate venv's interpreter, built once per requirement list (lerobot/isolated_env.py):
 
     <cache>/envs/lerobot-<version>-<hash of the requirement list and the python version>/
 
@@ -31,8 +31,8 @@ import sys
 from pathlib import Path
 
 from xicm.core.errors import XicmError
-from xicm.core.isolated_env import EnvSpec
-from xicm.core.isolated_env import env_python as _env_python
+from xicm.lerobot.isolated_env import EnvSpec
+from xicm.lerobot.isolated_env import env_python as _env_python
 
 LEROBOT_VERSION = "0.4.4"
 #: lerobot 0.4.4's own bounds: torch<2.11, torchvision<0.26, torchcodec<0.11 (matching releases)
@@ -63,7 +63,7 @@ LEROBOT = EnvSpec(
         "pyserial>=3.5,<4.0",
         "diffusers>=0.27.2,<0.36.0",
         "wandb>=0.24.0,<0.25.0",
-        # what xicm's serving package needs to serve a checkpoint (serving/lerobot_policy_server.py)
+        # what xicm's serving package needs to serve a checkpoint (lerobot/policy_server.py)
         "msgpack>=1.0",
         "websockets>=14",
     ),
@@ -93,7 +93,7 @@ def check_ffmpeg() -> None:
 
 
 def run_script(python: Path, script: str, *args: str) -> None:
-    """Run one of this package's env-side scripts (lerobot_writer.py, ...) with the env's interpreter."""
+    """Run one of this package's env-side scripts (writer.py, ...) with the env's interpreter."""
     path = Path(__file__).with_name(script)
     done = subprocess.run([str(python), str(path), *args], stderr=subprocess.PIPE, text=True)
     if done.returncode != 0:
