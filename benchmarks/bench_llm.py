@@ -57,6 +57,7 @@ def main() -> None:
 
     from xicm.plugins.llms.model_files import embedded_model_dir
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
+    from xicm.plugins.llms.transformers_local_options import TransformersLocalOptions
 
     tmp = None if args.cache_dir else tempfile.mkdtemp(prefix="xicm-bench-llm-")
     cache = args.cache_dir or tmp
@@ -65,27 +66,27 @@ def main() -> None:
         options = dict(cache_dir=cache, chat_template="raw", stop=None, torch_threads=args.threads,
                        max_new_tokens=args.new_tokens, max_prompt_tokens=8192)
         t0 = time.perf_counter()
-        TransformersLocalLLM(**options).load()
+        TransformersLocalLLM(TransformersLocalOptions(**options)).load()
         first = time.perf_counter() - t0
         t0 = time.perf_counter()
-        llm = TransformersLocalLLM(**options)
+        llm = TransformersLocalLLM(TransformersLocalOptions(**options))
         llm.load()
         cached = time.perf_counter() - t0
 
         import torch
 
-        messages, _ = build_messages(llm._tokenizer, args.prompt_tokens)
-        ids = llm._fit(llm.encode(messages))
+        messages, _ = build_messages(llm.loaded.tokenizer, args.prompt_tokens)
+        ids = llm.prompts.fit(llm.prompts.encode(messages))
         input_ids = torch.tensor([ids])
         def generate(n: int):
-            return llm._model.generate(
+            return llm.loaded.model.generate(
                 input_ids=input_ids, attention_mask=torch.ones_like(input_ids), do_sample=False,
                 temperature=None, top_p=None, top_k=None, max_new_tokens=n,
-                min_new_tokens=n, pad_token_id=llm._tokenizer.pad_token_id,
+                min_new_tokens=n, pad_token_id=llm.loaded.tokenizer.pad_token_id,
             )
 
         with torch.inference_mode():
-            llm._model(input_ids[:, :32], logits_to_keep=1)  # warm-up
+            llm.loaded.model(input_ids[:, :32], logits_to_keep=1)  # warm-up
             t0 = time.perf_counter()
             generate(1)  # prefill + one token
             prefill = time.perf_counter() - t0

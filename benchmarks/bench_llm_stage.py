@@ -133,11 +133,12 @@ def llm_options(alias: str) -> dict:
 
 def llamacpp_llm(mode: str, max_new_tokens: int | None):
     from xicm.plugins.llms.llamacpp import LlamaCppLLM
+    from xicm.plugins.llms.llamacpp_options import LlamaCppOptions
 
     conf = llm_options(LLAMACPP_MODES[mode])
     if max_new_tokens:
         conf["max_tokens"] = max_new_tokens
-    llm = LlamaCppLLM(**conf)
+    llm = LlamaCppLLM(LlamaCppOptions(**conf))
     llm.start()  # model fetch and server start are not part of the timed calls
     return llm
 
@@ -178,11 +179,12 @@ def main() -> None:
     from xicm.core.parsing import ParseError, parse_actions
     from xicm.plugins.llms import stopping
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
+    from xicm.plugins.llms.transformers_local_options import TransformersLocalOptions
 
     episodes = build_episodes(args.pool, args.episodes, args.calls, args.k, args.seed, args.shared_demos)
     options = gemma_options(args.max_new_tokens)
     options["torch_threads"] = args.torch_threads
-    llms = {m: TransformersLocalLLM(**{**options, "draft_tokens": args.draft_tokens, **MODES[m]}) for m in modes if m in MODES}
+    llms = {m: TransformersLocalLLM(TransformersLocalOptions(**{**options, "draft_tokens": args.draft_tokens, **MODES[m]})) for m in modes if m in MODES}
     llms.update({m: llamacpp_llm(m, args.max_new_tokens) for m in modes if m in LLAMACPP_MODES})
     llms = {m: llms[m] for m in modes}
     matchers = None
@@ -193,9 +195,9 @@ def main() -> None:
         if llm.grammar != "none":  # one tokenizer conversion for all grammar modes
             if matchers is None:
                 t0 = time.perf_counter()
-                matchers = llm.matchers()
+                matchers = llm.generator.matchers()
                 print(f"llguidance tokenizer conversion: {time.perf_counter() - t0:.1f} s (once per process)")
-            llm._matchers = matchers
+            llm.generator._matchers = matchers
     print(f"pool {args.pool}, {args.episodes} episodes x {args.calls} calls, k={args.k}, options {options}, "
           f"draft_tokens={args.draft_tokens}, torch threads {torch.get_num_threads()}")
     print("episode call prompt_tokens " + " ".join(f"{m}_s" for m in modes) + "  (reused prompt tokens; new tokens)")
@@ -217,8 +219,8 @@ def main() -> None:
                     n_prompt[m] = split.get("prompt_tokens")
                     row.append(f"{s:.1f}({split.get('cache_n', 0)};{split.get('predicted_n', '-')})")
                 else:
-                    n_prompt.setdefault("transformers", len(llms[m]._fit(llms[m].encode(prompt.messages))))
-                    row.append(f"{s:.1f}" + (f"({split.get('reused_tokens', 0)};{split.get('new_tokens', '-')})" if llms[m].fast else ""))
+                    n_prompt.setdefault("transformers", len(llms[m].prompts.fit(llms[m].prompts.encode(prompt.messages))))
+                    row.append(f"{s:.1f}" + (f"({split.get('reused_tokens', 0)};{split.get('new_tokens', '-')})" if llms[m].options.fast else ""))
             print(f"{e} {c} {n_prompt} " + " ".join(row), flush=True)
             for m in modes:
                 print(f"    {m:16s} {replies[m][e, c]!r}")

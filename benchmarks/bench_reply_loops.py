@@ -64,11 +64,12 @@ def main() -> None:
 
     from bench_llm_stage import llm_options
     from xicm.plugins.llms.llamacpp import LlamaCppLLM
+    from xicm.plugins.llms.llamacpp_options import LlamaCppOptions
 
     conf = llm_options(args.llm)
     settings = [parse_setting(s) for s in args.settings]
     prompts = recorded_prompts(args.run_dir, args.calls)
-    llms = {name: LlamaCppLLM(**{**conf, **options}) for name, options in settings}
+    llms = {name: LlamaCppLLM(LlamaCppOptions(**{**conf, **options})) for name, options in settings}
     for llm in llms.values():
         llm.start()
     print(f"{len(prompts)} recorded prompts of {args.run_dir}, model {args.llm}, settings "

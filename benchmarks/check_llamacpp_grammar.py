@@ -119,6 +119,7 @@ def main() -> None:
     from xicm.core.errors import ConfigError
     from xicm.plugins.llms.action_grammar import ACTIONS_REGEX
     from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
+    from xicm.plugins.llms.openai_compatible_options import OpenAICompatibleOptions
 
     gguf = embedded_gguf()
     prompts = [calls[0] for calls in build_episodes(args.pool, args.prompts, 1, args.k, args.seed)]
@@ -140,11 +141,11 @@ def main() -> None:
         options = dict(base_url=url + "/v1", model=served[0], mode="completion", completion_format="raw",
                        server="llamacpp", temperature=0, max_tokens=args.max_tokens,
                        extra={"cache_prompt": args.cache_prompt})
-        llms = {g: OpenAICompatibleLLM(grammar=g, **options) for g in ("actions", "none")}
+        llms = {g: OpenAICompatibleLLM(OpenAICompatibleOptions(grammar=g, **options)) for g in ("actions", "none")}
         llms["actions"].check_ready()
         print(f"check_ready() with llm.model={served[0]!r}: ok")
         try:
-            OpenAICompatibleLLM(**{**options, "model": "gemma-3-270m"}).check_ready()
+            OpenAICompatibleLLM(OpenAICompatibleOptions(**{**options, "model": "gemma-3-270m"})).check_ready()
             print("check_ready() with llm.model='gemma-3-270m': accepted")
         except ConfigError as exc:
             print(f"check_ready() with llm.model='gemma-3-270m': ConfigError: {exc}")

@@ -42,7 +42,6 @@ def main() -> None:
     options = {
         "name": "sapien",
         "render": False,
-        "sample_variations": not args.fixed_variation,
         "physics_hz": args.physics_hz,
         "grasp": args.grasp,
         "success_check": args.success_check,
@@ -50,6 +49,7 @@ def main() -> None:
         "robot": args.robot,
     }
     sim = get_registry().create_simulator(options)
+    sim.sample_variations = not args.fixed_variation  # what benchmark.variations sets in a run
     tasks = args.tasks or sim.task_names()
     print(f"{'task':<18} {'demo ok':>9} {'replay ok':>10} {'raw replay':>11} {'frames':>7} {'keys':>5} {'s/demo':>7} {'draws':>11}")
     for task in tasks:

@@ -44,12 +44,10 @@ class Run:
 
 
 def create_simulator(cfg: DictConfig, registry: Registry) -> Simulator:
-    """The run's simulator; benchmark.variations (zero | sampled), when set, decides whether
-    episodes use variation 0 or one sampled from (seed, task, episode)."""
+    """The run's simulator; benchmark.variations (zero | sampled) decides whether episodes use
+    variation 0 or one sampled from (seed, task, episode)."""
     simulator = registry.create_simulator(group_options(cfg, "simulator"))
-    variations = OmegaConf.select(cfg, "benchmark.variations")
-    if variations is not None:
-        simulator.sample_variations = variations == "sampled"
+    simulator.sample_variations = cfg.benchmark.variations == "sampled"
     return simulator
 
 

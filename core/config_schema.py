@@ -121,16 +121,16 @@ class Benchmark:
     pool: str = MISSING
     pool_tasks: List[str] = MISSING
     #: zero: every episode on variation 0; sampled: a variation per episode from its seed (as in
-    #: collection); null: the simulator's own setting (sapien: sample_variations, default true)
-    variations: Optional[str] = field(default=None, metadata=one_of("zero", "sampled"))
+    #: collection); sets the simulator's sample_variations (core/interfaces.py)
+    variations: str = field(default=MISSING, metadata=one_of("zero", "sampled"))
     #: agnostos: each task's AGNOSTOS instruction; sampled: one of its variation-0 phrasings per
     #: episode, drawn from the episode's seed stream (language-robustness studies)
-    instructions: str = field(default="agnostos", metadata=one_of(*INSTRUCTION_CHOICES))
+    instructions: str = field(default=MISSING, metadata=one_of(*INSTRUCTION_CHOICES))
     #: null: each seed draws its own scenes; a seed: every seed replays this seed's scenes (episode e
     #: of task t is the same scene under every seed, as X-ICM replays 25 stored scenes), while the
     #: policy's random draws (e.g. retriever=random) still follow the run's seed
     scene_seed: Optional[int] = field(
-        default=None, metadata=rule(lambda v: v is None or 0 <= v <= SEED_MAX, f"null or an integer from 0 to {SEED_MAX}")
+        default=MISSING, metadata=rule(lambda v: v is None or 0 <= v <= SEED_MAX, f"null or an integer from 0 to {SEED_MAX}")
     )
 
 

@@ -25,7 +25,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     registry = get_registry()
     tasks = list(cfg.benchmark.tasks)
     checks.check_run(cfg, registry, tasks)
-    video = VideoSettings.from_config(cfg, out_dir)
+    video = VideoSettings.from_config(cfg.video, out_dir)
     run_dir = RunDir(out_dir)
     added = run_dir.check_same_run(cfg)
     if added:
@@ -48,7 +48,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         max_control_steps=cfg.max_control_steps,
         video=video,
         transcripts_dir=transcripts_dir,
-        instructions=str(cfg.benchmark.instructions),
+        instructions=cfg.benchmark.instructions,
         scene_seed=cfg.benchmark.scene_seed,
     ) as runner:
         write_json_atomic(

@@ -172,6 +172,13 @@ class LLM(ABC):
     def complete(self, prompt: Prompt) -> str:
         """The model's reply to the prompt."""
 
+    @property
+    @abstractmethod
+    def deterministic(self) -> bool:
+        """True when the same prompt always gets the same reply (greedy, or sampling seeded per
+        call): only then does the response cache (llm_cache) answer for the model. A plugin
+        declares it (a class attribute or a property)."""
+
     def identity(self) -> str:
         """Model and decoding settings; part of the response-cache key."""
         return type(self).__name__

@@ -132,10 +132,16 @@ class Registry:
 
     def check_options(self, kind: str, options: dict[str, Any]) -> Registration:
         """The registration options['name'] picks, its other options checked against the schema it
-        registered (`options=`, a dataclass: xicm.core.schema); without one, create() finds out."""
+        registered (`options=`, a dataclass: xicm.core.schema); without one, create() finds out.
+        A key the plugin registered as `replaced={old: new}` is refused with a sentence naming the new key."""
         if "name" not in options:
             raise UnknownPluginError(f"the {kind} config has no 'name'; available: {', '.join(self.names(kind))}")
         reg = self.get(kind, options["name"])
+        for old, new in reg.extra.get("replaced", {}).items():
+            if old in options:
+                from xicm.core.errors import ConfigError
+
+                raise ConfigError(f"{kind}.{old} is no longer an option of {kind} '{reg.name}'; set {new} instead")
         if reg.extra.get("options") is not None:
             from xicm.core.schema import check_options
 
@@ -144,13 +150,18 @@ class Registry:
         return reg
 
     def create(self, kind: str, options: dict[str, Any], **deps: Any) -> Any:
-        """Build the plugin named by options['name'] with the remaining options (checked first)."""
+        """Build the plugin named by options['name'] (its options checked first).
+
+        A plugin that registered a schema (`options=Dataclass`) gets one instance of it, its
+        defaults filled in: factory(options, **deps); the schema is then the only place its
+        options and defaults are written. Without one: factory(**options, **deps)."""
         reg = self.check_options(kind, options)
         options = {k: v for k, v in options.items() if k != "name"}
         from xicm.core.errors import ConfigError
 
+        schema = reg.extra.get("options")
         try:
-            built = reg.factory(**options, **deps)
+            built = reg.factory(options_object(schema, options), **deps) if schema is not None else reg.factory(**options, **deps)
         except TypeError as exc:
             if "unexpected keyword argument" not in str(exc):
                 raise
@@ -162,6 +173,14 @@ class Registry:
                 f"{', '.join(missing)} of the {kind} interface (xicm.core.interfaces)"
             )
         return built
+
+
+def options_object(schema: type, values: dict[str, Any]) -> Any:
+    """An instance of a plugin's options dataclass: `values` (checked already) over its defaults,
+    converted to the fields' types, plain lists and dicts inside."""
+    from omegaconf import OmegaConf
+
+    return OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(schema), values))
 
 
 def missing_methods(kind: str, obj: Any) -> list[str]:
@@ -179,7 +198,14 @@ def missing_methods(kind: str, obj: Any) -> list[str]:
     }.get(kind)
     if cls is None or isinstance(obj, cls):
         return []
-    return sorted(m for m in cls.__abstractmethods__ if not callable(getattr(obj, m, None)))
+    return sorted(m for m in cls.__abstractmethods__ if not _provides(obj, cls, m))
+
+
+def _provides(obj: Any, cls: type, member: str) -> bool:
+    """A method must be callable; a property (LLM.deterministic) only present."""
+    if isinstance(getattr(cls, member, None), property):
+        return hasattr(obj, member)
+    return callable(getattr(obj, member, None))
 
 
 def make_plugin_manager(load_entry_points: bool = True) -> pluggy.PluginManager:

@@ -30,20 +30,21 @@ _warned = False  # the one-line warning is printed once per process
 
 @dataclass(frozen=True)
 class VideoSettings:
-    """What to record and where: `<run_dir>/videos/<task>/s<seed>-e<episode:04d>-PASS.mp4`."""
+    """What to record and where: `<run_dir>/videos/<task>/s<seed>-e<episode:04d>-PASS.mp4`. The
+    values are the run's `video` keys (config_schema.Video: their types and rules; conf/config.yaml:
+    their defaults), so none has a default here."""
 
     run_dir: Path
-    camera: str = "front"
-    fps: int = 20
-    every: int = 1  # render every k-th frame
+    camera: str
+    fps: float  # playback frames per second
+    every: int  # render every k-th frame
 
     @classmethod
-    def from_config(cls, cfg: Any, run_dir: Path) -> VideoSettings | None:
-        """The run's settings from the `video` keys (checked by the config schema); None when videos are off."""
-        video = cfg.get("video") if hasattr(cfg, "get") else None
-        if video is None or not bool(video.get("enabled", False)):
+    def from_config(cls, video: Any, run_dir: Path) -> VideoSettings | None:
+        """The settings of the run's `video` keys (cfg.video); None when videos are off."""
+        if not video.enabled:
             return None
-        return cls(Path(run_dir), video.get("camera", "front"), video.get("fps", 20), video.get("every", 1))
+        return cls(Path(run_dir), video.camera, video.fps, video.every)
 
     def path(self, task: str, seed: int, episode: int, success: bool) -> Path:
         return RunDir(self.run_dir).video(task, seed, episode, success)

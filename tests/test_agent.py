@@ -10,12 +10,14 @@ from xicm.core.errors import ConfigError, LLMError
 from xicm.core.interfaces import LLM, Detector, PolicyContext
 from xicm.core.plugins import get_registry
 from xicm.plugins.llms.nearest_demo import reanchor
-from xicm.plugins.policies.xicm import create_xicm_policy
+from xicm.plugins.policies.xicm import XicmPolicyOptions, create_xicm_policy
 from xicm.plugins.policies.xicm.policy import XICMPolicy
 
 
 class ScriptedReply(LLM):
     """Test LLM that answers every prompt with a fixed text."""
+
+    deterministic = True
 
     def __init__(self, text):
         self.text = text
@@ -27,17 +29,23 @@ class ScriptedReply(LLM):
 class Unreachable(LLM):
     """Test LLM that asks for a pose far outside the robot's reach."""
 
+    deterministic = True
+
     def complete(self, prompt):
         return "[[99, 99, 99, 0, 36, 36, 1]]"
 
 
 class ServerDown(LLM):
+    deterministic = True
+
     def complete(self, prompt):
         raise LLMError("the server at http://127.0.0.1:9/v1 did not answer")
 
 
 class Recording(LLM):
     """Wraps an LLM and keeps every prompt it was asked."""
+
+    deterministic = False
 
     def __init__(self, inner):
         self.inner, self.prompts = inner, []
@@ -94,7 +102,7 @@ def _factory_config(**groups):
 def test_the_factory_builds_the_configured_parts_over_the_pool_file(sim, smoke_pool):
     path, pool = smoke_pool
     cfg = _factory_config(encoder={"name": "minilm"}, retriever={"name": "similarity"})
-    policy = create_xicm_policy(3, 2, str(path), ["push_buttons"], PolicyContext(cfg, get_registry(), sim))
+    policy = create_xicm_policy(XicmPolicyOptions(3, 2, str(path), ["push_buttons"]), PolicyContext(cfg, get_registry(), sim))
     assert (policy.k, policy.max_llm_calls, type(policy.llm).__name__) == (3, 2, "NearestDemoLLM")
     assert {d.task for d in policy.pool} == {"push_buttons"} and len(policy.pool) == 2
     assert policy.run_metadata() == {"pool": str(path), "pool_size": 2}
@@ -103,7 +111,7 @@ def test_the_factory_builds_the_configured_parts_over_the_pool_file(sim, smoke_p
 def test_the_factory_refuses_a_pool_without_the_asked_tasks(sim, smoke_pool):
     path, _ = smoke_pool
     with pytest.raises(ConfigError, match=r"holds no demos of \['close_jar'\]; collect them first"):
-        create_xicm_policy(2, None, str(path), ["close_jar"], PolicyContext(_factory_config(), get_registry(), sim))
+        create_xicm_policy(XicmPolicyOptions(2, None, str(path), ["close_jar"]), PolicyContext(_factory_config(), get_registry(), sim))
 
 
 def test_the_whole_loop_replays_each_demo_on_its_own_scene(sim, smoke_pool):
@@ -126,7 +134,7 @@ def test_factory_built_policy_retrieves_by_language_and_replays_the_demo_reancho
     actions moved onto the new scene's objects."""
     path, pool = smoke_pool
     cfg = _factory_config(encoder={"name": "minilm"}, retriever={"name": "similarity"})
-    policy = create_xicm_policy(1, 1, str(path), ["open_drawer", "push_buttons"], PolicyContext(cfg, get_registry(), sim))
+    policy = create_xicm_policy(XicmPolicyOptions(1, 1, str(path), ["open_drawer", "push_buttons"]), PolicyContext(cfg, get_registry(), sim))
     policy.llm = Recording(policy.llm)
     for e in range(2):
         r = run_episode(sim, policy, "push_buttons", 0, e)

@@ -1,3 +1,4 @@
+import json
 import os
 from pathlib import Path
 
@@ -6,7 +7,7 @@ from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
 from cli_in_process import run_main
-from xicm.core import checks
+from xicm.core import build, checks
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import UnknownPluginError, get_registry
 
@@ -141,3 +142,26 @@ def test_every_experiment_composes_and_sweeps_what_exists(name):
         else:  # a value: the key must exist in the composed config
             assert OmegaConf.select(cfg, key) is not None, key
     assert set(cfg.benchmark.tasks) <= set(get_registry().names("task"))
+
+
+@pytest.mark.parametrize("policy", ["oracle", "remote"])
+def test_the_paper_presets_compose_with_any_policy(policy):
+    """X-ICM's own policy keys live in conf/policy/xicm_paper.yaml (the presets' policy), so
+    choosing another policy drops them instead of failing their unknown-key check."""
+    cfg = _compose(["+experiment=paper_table2", f"policy={policy}"])
+    get_registry().check_options("policy", build.group_options(cfg, "policy"))
+    assert (cfg.simulator.robot, cfg.seeds, cfg.episodes) == ("rlbench", [0, 1, 2], 25)  # the preset still applies
+    assert cfg.policy.name == policy and "rerank" not in cfg.policy
+    paper = _compose(["+experiment=paper_protocol"]).policy
+    assert (paper.name, paper.k, paper.rerank, paper.partial_replies, paper.parse_fallback) == ("xicm", 18, True, True, True)
+
+
+def test_the_oracle_row_of_the_paper_settings_is_one_command(cli, tmp_path):
+    out = cli("+experiment=paper_protocol", "policy=oracle", "benchmark.tasks=[close_microwave]", "seeds=[0]",
+              "episodes=1", "simulator.image_size=32", f"paths.data={tmp_path}/nothing", "hydra.run.dir=run", "progress=false",
+              cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    (row,) = [json.loads(line) for line in (tmp_path / "run" / "episodes.jsonl").read_text().splitlines()]
+    assert (row["task"], row["success"]) == ("close_microwave", True)
+    run = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert run["policy"] == "oracle" and run["config"]["simulator"]["success_check"] == "per_frame"

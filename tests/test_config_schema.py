@@ -8,7 +8,6 @@ from pathlib import Path
 
 import pytest
 from hydra import compose, initialize_config_module
-from omegaconf import MISSING
 
 from cli_in_process import run_main
 from xicm.core import build, checks
@@ -166,12 +165,12 @@ def test_a_key_the_config_does_not_have_is_one_sentence(override, sentence):
         (["simulator.image_size=[0,64]"], f"simulator.image_size must be {IMAGE_SIZE}, not [0, 64]"),
         (["simulator.image_size=4097"], f"simulator.image_size must be {IMAGE_SIZE}, not 4097"),
         (["simulator.image_size=[64,64,3]"], f"simulator.image_size must be {IMAGE_SIZE}, not [64, 64, 3]"),
-        (["+simulator.cameras=[nope]"],
+        (["simulator.cameras=[nope]"],
          "simulator.cameras must be a non-empty list of distinct names from front, left_shoulder, right_shoulder, "
          "overhead, wrist, not ['nope']"),
-        (["+simulator.physics_hz=0"], "simulator.physics_hz must be a number > 0, not 0"),
-        (["+simulator.image_size={front: 5000}"], f"simulator.image_size must be {IMAGE_SIZE}, not {{\"front\": 5000}}"),
-        (["+simulator.control_hz=15"], "simulator.frame_hz (20) must be a whole multiple of simulator.control_hz (15), e.g. frame_hz 20 with control_hz 10, 20 or 5"),
+        (["simulator.physics_hz=0"], "simulator.physics_hz must be a number > 0, not 0"),
+        (["simulator.image_size={front: 5000}"], f"simulator.image_size must be {IMAGE_SIZE}, not {{\"front\": 5000}}"),
+        (["simulator.control_hz=15"], "simulator.frame_hz (20) must be a whole multiple of simulator.control_hz (15), e.g. frame_hz 20 with control_hz 10, 20 or 5"),
     ],
 )
 def test_the_simulator_and_the_policy_options_are_checked_before_anything_is_built(overrides, sentence):
@@ -227,6 +226,8 @@ def test_a_plugin_registered_without_a_schema_keeps_its_factory_check():
     from xicm.core.plugins import Registry, make_plugin_manager
 
     class Parrot:
+        deterministic = True
+
         def __init__(self, reply="ok"):
             self.reply = reply
 
@@ -290,28 +291,6 @@ def test_the_paper_pool_is_collected_with_the_paper_presets_simulator():
     assert _compose([]).simulator.robot == "ours"
 
 
-def _constructor(factory):
-    """What a factory's options become: the class's __init__ for a class, else the function."""
-    return factory.__init__ if inspect.isclass(factory) else factory
-
-
-BUILT_BY_FUNCTION = {  # factories that take **options and pass them on
-    ("simulator", "sapien"): "xicm.plugins.simulators.sapien.simulator:SapienSimulator",
-    ("retriever", "dynamics"): "xicm.plugins.retrievers.similarity:SimilarityRetriever",
-}
-
-
-def _parameters(kind, name, factory):
-    import importlib
-
-    if (kind, name) in BUILT_BY_FUNCTION:
-        module, cls = BUILT_BY_FUNCTION[kind, name].split(":")
-        factory = getattr(importlib.import_module(module), cls)
-    params = inspect.signature(_constructor(factory)).parameters
-    deps = {"self", "encoder", "context", "tasks"}  # what the run hands a factory beside its options
-    return {n: p for n, p in params.items() if n not in deps and p.kind is not inspect.Parameter.VAR_KEYWORD}
-
-
 def _schemas():
     registry = get_registry()
     for kind in PLUGIN_GROUPS:
@@ -322,20 +301,32 @@ def _schemas():
 
 
 @pytest.mark.parametrize("kind, name, reg", list(_schemas()), ids=lambda v: v if isinstance(v, str) else "")
-def test_every_built_in_plugin_has_a_schema_that_matches_its_factory(kind, name, reg):
-    """Field names and defaults are the factory's, so the schema cannot drift from the code."""
-    schema = reg.extra.get("options")
-    assert schema is not None, f"{kind} '{name}' registers no options schema"
-    fields = {f.name: f for f in dataclasses.fields(schema)}
-    params = _parameters(kind, name, reg.factory)
-    assert set(fields) == set(params)
-    for field_name, field in fields.items():
-        default = field.default_factory() if field.default_factory is not dataclasses.MISSING else field.default
-        expected = params[field_name].default
-        if expected is inspect.Parameter.empty:
-            assert default is MISSING or default is dataclasses.MISSING, field_name
-        else:
-            assert default == (list(expected) if isinstance(expected, tuple) else expected), field_name
+def test_every_built_in_plugin_takes_its_options_as_one_object(kind, name, reg):
+    """The schema is the one place a plugin's options and defaults are written: its factory takes
+    an instance of it (Registry.create) and no option of its own, so nothing can drift."""
+    assert reg.extra.get("options") is not None, f"{kind} '{name}' registers no options schema"
+    factory = reg.factory.__init__ if inspect.isclass(reg.factory) else reg.factory
+    params = [p for p in inspect.signature(factory).parameters if p != "self"]
+    assert params[0] == "options" and set(params[1:]) <= {"encoder", "context", "tasks"}, params
+
+
+def test_sapien_yaml_declares_every_simulator_option_with_its_default():
+    """One declaration: SapienOptions; the group's YAML lists each option with that default, so every
+    documented key is a plain override (simulator.control_hz=20, no `+`)."""
+    from omegaconf import OmegaConf
+
+    from xicm.plugins.simulators.sapien.options import SapienOptions
+
+    declared = OmegaConf.to_container(OmegaConf.load(CONF / "simulator" / "sapien.yaml"))
+    assert declared.pop("name") == "sapien"
+    assert declared == OmegaConf.to_container(OmegaConf.structured(SapienOptions))
+
+
+def test_a_replaced_simulator_option_names_the_key_that_replaced_it():
+    cfg = _compose(["+simulator.sample_variations=false"])
+    with pytest.raises(ConfigError, match=r"^simulator.sample_variations is no longer an option of simulator 'sapien'; "
+                                          r"set benchmark.variations \(zero \| sampled\) instead$"):
+        checks.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
 # ------------------------------------------------------------------ xicm-train-dynamics (the dynamics plugin's config)

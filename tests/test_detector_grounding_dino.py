@@ -15,6 +15,7 @@ from tiny_grounding_dino import build_tiny_grounding_dino  # noqa: E402
 
 from xicm.core.errors import ConfigError  # noqa: E402
 from xicm.plugins.detectors.grounding_dino import GroundingDinoDetector, lift_box, name_token_spans  # noqa: E402
+from xicm.plugins.detectors.grounding_dino import GroundingDinoOptions  # noqa: E402
 
 NAMES = ["microwave", "microwave door", "microwave door handle"]
 
@@ -28,12 +29,12 @@ def tiny(tmp_path_factory):
 def test_a_missing_checkpoint_is_one_clear_sentence(model, monkeypatch):
     monkeypatch.setenv("HF_HUB_OFFLINE", "1")
     with pytest.raises(ConfigError, match=r"could not be loaded from this machine .*detector.model=/path/to/a/local/copy") as err:
-        GroundingDinoDetector(model=model)
+        GroundingDinoDetector(GroundingDinoOptions(model=model))
     assert "\n" not in str(err.value)
 
 
 def test_name_token_spans(tiny):
-    det = GroundingDinoDetector(model=str(tiny))
+    det = GroundingDinoDetector(GroundingDinoOptions(model=str(tiny)))
     caption = " . ".join(NAMES) + " ."
     spans = name_token_spans(det.processor.tokenizer, caption, NAMES)
     tokens = det.processor.tokenizer(caption).input_ids
@@ -53,13 +54,13 @@ def test_lift_box_finds_the_object_not_the_background():
 
 def test_end_to_end_on_a_simulator_observation(tiny, sim):
     obs = sim.reset("close_microwave", 0, 0)
-    det = GroundingDinoDetector(model=str(tiny), box_threshold=0.0, text_threshold=0.0)
+    det = GroundingDinoDetector(GroundingDinoOptions(model=str(tiny), box_threshold=0.0, text_threshold=0.0))
     found = det.detect(obs, list(obs.object_names))
     assert list(found) == NAMES  # a random model still grounds every name somewhere
     for xyz in found.values():
         assert np.all(np.isfinite(xyz)) and 0.5 < xyz[2] < 2.0
     assert det.detect(obs, list(obs.object_names)) == found  # deterministic
-    strict = GroundingDinoDetector(model=str(tiny), box_threshold=1.01)
+    strict = GroundingDinoDetector(GroundingDinoOptions(model=str(tiny), box_threshold=1.01))
     assert strict.detect(obs, list(obs.object_names)) == {}  # nothing passes: all "not detected"
-    only_front = GroundingDinoDetector(model=str(tiny), box_threshold=0.0, text_threshold=0.0, cameras=["front"])
+    only_front = GroundingDinoDetector(GroundingDinoOptions(model=str(tiny), box_threshold=0.0, text_threshold=0.0, cameras=["front"]))
     assert set(only_front.detect(obs, ["microwave"])) == {"microwave"} and len(det.seconds) == 2

@@ -6,7 +6,7 @@ import pytest
 from test_detector_oracle import look_at, obs_of, patch_frame
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import get_registry
-from xicm.plugins.detectors.noisy_oracle import NoisyOracleDetector
+from xicm.plugins.detectors.noisy_oracle import NoisyOracleDetector, NoisyOracleOptions
 from xicm.plugins.detectors.oracle import OracleDetector
 
 NAMES = ["a", "b", "c", "d"]
@@ -32,13 +32,13 @@ def test_noise_has_the_configured_size_and_repeats_for_the_same_scene():
     for shift in range(30):  # 30 scenes: the draw depends on the scene
         obs = scene(shift)
         truth = OracleDetector().detect(obs, NAMES)
-        noisy = NoisyOracleDetector(noise_cm=2.0, seed=3).detect(obs, NAMES)
-        assert noisy == NoisyOracleDetector(noise_cm=2.0, seed=3).detect(obs, NAMES)  # a fresh instance agrees
+        noisy = NoisyOracleDetector(NoisyOracleOptions(noise_cm=2.0, seed=3)).detect(obs, NAMES)
+        assert noisy == NoisyOracleDetector(NoisyOracleOptions(noise_cm=2.0, seed=3)).detect(obs, NAMES)  # a fresh instance agrees
         errors += [np.subtract(noisy[n], truth[n]) for n in NAMES]
     std = np.std(np.concatenate(errors))
     assert 0.015 < std < 0.025  # 2 cm per axis
-    other_seed = NoisyOracleDetector(noise_cm=2.0, seed=4).detect(scene(), NAMES)
-    assert other_seed != NoisyOracleDetector(noise_cm=2.0, seed=3).detect(scene(), NAMES)
+    other_seed = NoisyOracleDetector(NoisyOracleOptions(noise_cm=2.0, seed=4)).detect(scene(), NAMES)
+    assert other_seed != NoisyOracleDetector(NoisyOracleOptions(noise_cm=2.0, seed=3)).detect(scene(), NAMES)
 
 
 def test_drop_and_swap_rates():
@@ -46,10 +46,10 @@ def test_drop_and_swap_rates():
     for shift in range(40):
         obs = scene(shift)
         truth = OracleDetector().detect(obs, NAMES)
-        out = NoisyOracleDetector(drop_prob=0.25, seed=1).detect(obs, NAMES)
+        out = NoisyOracleDetector(NoisyOracleOptions(drop_prob=0.25, seed=1)).detect(obs, NAMES)
         dropped += len(NAMES) - len(out)
         assert all(out[n] == truth[n] for n in out)
-        out = NoisyOracleDetector(swap_prob=0.5, seed=1).detect(obs, NAMES)
+        out = NoisyOracleDetector(NoisyOracleOptions(swap_prob=0.5, seed=1)).detect(obs, NAMES)
         moved = [n for n in NAMES if out[n] != truth[n]]
         assert len(moved) in (0, 2)
         if moved:

@@ -8,7 +8,7 @@ from xicm.core import hookspecs
 from xicm.core.plugins import Registry
 from xicm.plugins.detectors import oracle
 from xicm.core.types import CameraFrame, KeyAction, Observation
-from xicm.plugins.detectors.oracle import OracleDetector, backproject
+from xicm.plugins.detectors.oracle import OracleDetector, OracleOptions, backproject
 
 H, W = 96, 128
 K = np.array([[110.0, 0.0, 63.5], [0.0, 105.0, 47.5], [0.0, 0.0, 1.0]])
@@ -111,11 +111,11 @@ def test_mean_over_cameras_that_see_the_object():
     np.testing.assert_allclose(out["a"], (a1 + a2) / 2, atol=1e-6)
     np.testing.assert_allclose(out["b"], b1, atol=1e-6)
     # camera selection
-    only_left = OracleDetector(cameras=["left"]).detect(obs, ["a", "b"])
+    only_left = OracleDetector(OracleOptions(cameras=["left"])).detect(obs, ["a", "b"])
     assert list(only_left) == ["a"]
     np.testing.assert_allclose(only_left["a"], a2, atol=1e-6)
     with pytest.raises(KeyError, match="available: front, left"):
-        OracleDetector(cameras=["wrist"]).detect(obs, ["a"])
+        OracleDetector(OracleOptions(cameras=["wrist"])).detect(obs, ["a"])
 
 
 def test_min_pixels_and_invalid_depth():
@@ -125,10 +125,10 @@ def test_min_pixels_and_invalid_depth():
     f.depth[40, 29] = np.nan  # (symmetric around the centre pixel, so the mean stays exact)
     f.depth[40, 31] = np.inf
     obs = obs_of({"front": f}, {1: "a", 2: "b"})
-    out = OracleDetector(min_pixels=10).detect(obs, ["a", "b"])
+    out = OracleDetector(OracleOptions(min_pixels=10)).detect(obs, ["a", "b"])
     assert list(out) == ["a"]
     np.testing.assert_allclose(out["a"], a, atol=1e-6)
-    assert list(OracleDetector(min_pixels=9).detect(obs, ["a", "b"])) == ["a", "b"]
+    assert list(OracleDetector(OracleOptions(min_pixels=9)).detect(obs, ["a", "b"])) == ["a", "b"]
 
 
 def raycast_table_square(pose, centre, half, seg_id=5, k=K):

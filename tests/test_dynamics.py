@@ -21,7 +21,9 @@ from xicm.core.plugins import get_registry  # noqa: E402
 from xicm.core.types import Query  # noqa: E402
 from xicm.plugins.dynamics.train import run_training  # noqa: E402
 from xicm.plugins.encoders.dynamics import DynamicsEncoder, resolve_checkpoint  # noqa: E402
+from xicm.plugins.encoders.dynamics import DynamicsEncoderOptions  # noqa: E402
 from xicm.plugins.retrievers.dynamics import DynamicsRetriever  # noqa: E402
+from xicm.plugins.retrievers.similarity import SimilarityOptions  # noqa: E402
 
 
 def _cfg(pool, out, *extra):
@@ -147,14 +149,14 @@ def test_features_are_deterministic_and_depend_on_seed_and_text(trained):
     out, _ = trained
     img = frame(TASKS["slide_left"][1], 10, 4)
     items = [(img, TASKS["slide_left"][0]), (img, "push the red block forward")]
-    a = DynamicsEncoder(str(out), steps=3).encode(items)
-    b = DynamicsEncoder(str(out), steps=3).encode(items)
+    a = DynamicsEncoder(DynamicsEncoderOptions(str(out), steps=3)).encode(items)
+    b = DynamicsEncoder(DynamicsEncoderOptions(str(out), steps=3)).encode(items)
     assert a.shape == (2, 3 * 16 * 16 + 384) and np.array_equal(a, b)
     assert not np.allclose(a[0], a[1])  # same frame, other instruction
-    assert not np.allclose(a, DynamicsEncoder(str(out), steps=3, seed=1).encode(items))
+    assert not np.allclose(a, DynamicsEncoder(DynamicsEncoderOptions(str(out), steps=3, seed=1)).encode(items))
     assert np.allclose(np.linalg.norm(a, axis=1), 1.0, atol=1e-5)
-    one_pass = DynamicsEncoder(str(out), mode="unet_features").encode(items)
-    assert np.array_equal(one_pass, DynamicsEncoder(str(out), mode="unet_features").encode(items))
+    one_pass = DynamicsEncoder(DynamicsEncoderOptions(str(out), mode="unet_features")).encode(items)
+    assert np.array_equal(one_pass, DynamicsEncoder(DynamicsEncoderOptions(str(out), mode="unet_features")).encode(items))
     assert not np.allclose(one_pass[0], one_pass[1])
 
 
@@ -162,15 +164,15 @@ def test_the_xicm_feature_is_the_raw_predicted_final_frame_without_text(trained)
     out, _ = trained
     img = frame(TASKS["slide_left"][1], 10, 4)
     items = [(img, TASKS["slide_left"][0]), (img, "push the red block forward")]
-    raw = DynamicsEncoder(str(out), steps=2, visual="final", text_weight=0.0, normalise=False).encode(items)
-    unit = DynamicsEncoder(str(out), steps=2, visual="final", text_weight=0.0).encode(items)
+    raw = DynamicsEncoder(DynamicsEncoderOptions(str(out), steps=2, visual="final", text_weight=0.0, normalise=False)).encode(items)
+    unit = DynamicsEncoder(DynamicsEncoderOptions(str(out), steps=2, visual="final", text_weight=0.0)).encode(items)
     assert raw.shape == (2, 3 * 16 * 16) and not np.allclose(np.linalg.norm(raw, axis=1), 1.0)
     # the normalised feature's visual part is the raw one scaled to unit length, its text part weighs 0
     assert np.allclose(unit[:, : raw.shape[1]], raw / np.linalg.norm(raw, axis=1, keepdims=True), atol=1e-6)
     assert np.allclose(unit[:, raw.shape[1] :], 0)
     with pytest.raises(ConfigError, match="text_weight must be 0"):
-        DynamicsEncoder(str(out), normalise=False)
-    keys = {DynamicsEncoder(str(out), text_weight=0.0, normalise=n).cache_key() for n in (True, False)}
+        DynamicsEncoder(DynamicsEncoderOptions(str(out), normalise=False))
+    keys = {DynamicsEncoder(DynamicsEncoderOptions(str(out), text_weight=0.0, normalise=n)).cache_key() for n in (True, False)}
     assert len(keys) == 2
 
 
@@ -178,14 +180,14 @@ def test_the_feature_cache_is_reused_and_invalidated_when_the_checkpoint_changes
     out = tmp_path / "model"
     run_training(_cfg(pool, out, "train.steps=2", "train.checkpoint_every=2", "train.heldout_every=0"))
     demos = load_pool(pool)
-    first = DynamicsRetriever(DynamicsEncoder(str(out), steps=2), cache_dir=str(tmp_path / "cache"))
+    first = DynamicsRetriever(SimilarityOptions(cache_dir=str(tmp_path / "cache")), encoder=DynamicsEncoder(DynamicsEncoderOptions(str(out), steps=2)))
     first.prepare(demos)
-    again = DynamicsRetriever(DynamicsEncoder(str(out), steps=2), cache_dir=str(tmp_path / "cache"))
+    again = DynamicsRetriever(SimilarityOptions(cache_dir=str(tmp_path / "cache")), encoder=DynamicsEncoder(DynamicsEncoderOptions(str(out), steps=2)))
     again.prepare(demos)
     assert (first.cache_hit, again.cache_hit) == (False, True) and again.cache_path == first.cache_path
 
     run_training(_cfg(pool, out, "train.steps=4", "train.checkpoint_every=2", "train.heldout_every=0"))
-    retrained = DynamicsRetriever(DynamicsEncoder(str(out), steps=2), cache_dir=str(tmp_path / "cache"))
+    retrained = DynamicsRetriever(SimilarityOptions(cache_dir=str(tmp_path / "cache")), encoder=DynamicsEncoder(DynamicsEncoderOptions(str(out), steps=2)))
     retrained.prepare(demos)
     assert retrained.cache_hit is False and retrained.cache_path != first.cache_path
 
@@ -193,7 +195,7 @@ def test_the_feature_cache_is_reused_and_invalidated_when_the_checkpoint_changes
 def test_retrieval_returns_k_distinct_demos_best_first(trained, pool, tmp_path):
     out, _ = trained
     demos = load_pool(pool)
-    retriever = DynamicsRetriever(DynamicsEncoder(str(out), steps=3), cache_dir=str(tmp_path))
+    retriever = DynamicsRetriever(SimilarityOptions(cache_dir=str(tmp_path)), encoder=DynamicsEncoder(DynamicsEncoderOptions(str(out), steps=3)))
     retriever.prepare(demos)
     text, colour, start, _ = TASKS["slide_right"]
     query = Query(task="slide_right", instruction=text, objects={}, front_rgb=frame(colour, start, 6))
@@ -201,7 +203,7 @@ def test_retrieval_returns_k_distinct_demos_best_first(trained, pool, tmp_path):
     scores = [s for _, s in chosen]
     assert len({d.demo_id for d, _ in chosen}) == 5
     assert scores == sorted(scores, reverse=True)
-    others = DynamicsRetriever(DynamicsEncoder(str(out), steps=3), cache_dir=str(tmp_path), exclude_same_task=True)
+    others = DynamicsRetriever(SimilarityOptions(cache_dir=str(tmp_path), exclude_same_task=True), encoder=DynamicsEncoder(DynamicsEncoderOptions(str(out), steps=3)))
     assert all(d.task == "slide_left" for d, _ in others.select(query, demos, 3, np.random.default_rng(0)))
 
 
@@ -219,7 +221,7 @@ def test_missing_models_and_bad_options_say_what_to_do(tmp_path, pool):
     from xicm.plugins.encoders.minilm import MiniLMEncoder
 
     with pytest.raises(ConfigError, match="encoder=dynamics"):
-        DynamicsRetriever(MiniLMEncoder())
+        DynamicsRetriever(SimilarityOptions(), encoder=MiniLMEncoder())
 
 
 def test_a_transformers_text_encoder_from_a_local_folder(tmp_path):

@@ -48,7 +48,7 @@ def test_image_ignored_and_model_loaded_once(encoder):
 
 def test_cache_key_names_the_model(encoder):
     assert "all-MiniLM-L6-v2" in encoder.cache_key()
-    assert encoder.cache_key() == minilm.MiniLMEncoder(batch_size=128).cache_key()
+    assert encoder.cache_key() == minilm.MiniLMEncoder(minilm.MiniLMOptions(batch_size=128)).cache_key()
 
 
 def test_repeated_instructions_get_identical_rows(encoder):

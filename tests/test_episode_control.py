@@ -14,7 +14,7 @@ TASK = "open_drawer"
 
 def _compose(*overrides):
     with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
-        return compose("config", overrides=["+simulator.render=false", *overrides])
+        return compose("config", overrides=["simulator.render=false", *overrides])
 
 
 class ChunkReplay(Policy):
@@ -111,8 +111,8 @@ def test_benchmark_variations_picks_variation_zero_or_samples_one_per_episode(va
     assert len(seen) == instructions
 
 
-def test_without_benchmark_variations_the_simulator_option_decides():
-    built = build_run(_compose("+simulator.sample_variations=false"), with_policy=False)
+def test_benchmark_variations_sets_the_simulators_sample_variations():
+    built = build_run(_compose("benchmark.variations=zero", "simulator.render=false"), with_policy=False)
     try:
         assert built.simulator.sample_variations is False
     finally:
@@ -125,5 +125,5 @@ def test_an_unknown_benchmark_variations_value_is_one_sentence():
     from xicm.core.plugins import get_registry
 
     cfg = _compose("benchmark.variations=all")
-    with pytest.raises(ConfigError, match="benchmark.variations must be one of zero, sampled or null, not 'all'"):
+    with pytest.raises(ConfigError, match="benchmark.variations must be one of zero, sampled, not 'all'"):
         check_run(cfg, get_registry(), list(cfg.benchmark.tasks))

@@ -10,7 +10,7 @@ from xicm.core.errors import ConfigError
 from xicm.core.interfaces import PolicyContext
 from xicm.core.plugins import get_registry
 from xicm.core.types import Demo, KeyAction, Trajectory
-from xicm.plugins.policies.xicm import create_xicm_policy
+from xicm.plugins.policies.xicm import XicmPolicyOptions, create_xicm_policy
 from xicm.plugins.policies.xicm.parts import rederive_key_actions
 
 MOVING, STILL = [0.5] * 7, [0.0] * 7
@@ -50,7 +50,8 @@ def test_the_factory_reads_the_pool_file_with_the_xicm_rule(sim, smoke_pool):
     from omegaconf import OmegaConf
 
     context = PolicyContext(OmegaConf.create(cfg_groups), get_registry(), sim)
-    policy = create_xicm_policy(2, None, str(path), ["open_drawer", "push_buttons"], context, keyframes="xicm")
+    options = XicmPolicyOptions(2, None, str(path), ["open_drawer", "push_buttons"], keyframes="xicm")
+    policy = create_xicm_policy(options, context)
     stored = load_pool(path, with_images=False, with_trajectories=True)
     for built, demo in zip(policy.pool, stored):
         t = demo.trajectory

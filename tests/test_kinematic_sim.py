@@ -55,12 +55,12 @@ def test_check_simulator_passes_on_every_task_and_episode(kinematic):
 def test_its_pictures_show_the_cube_where_it_is(kinematic):
     """Depth, segmentation and the cameras' intrinsics and poses agree: the oracle detector
     back-projects the cube's pixels onto the cube's top face, from either camera."""
-    from xicm.plugins.detectors.oracle import OracleDetector
+    from xicm.plugins.detectors.oracle import OracleDetector, OracleOptions
 
     obs = kinematic.reset("pick_cube_to_zone", 0, 1)
     assert obs.cameras["top"].rgb.shape == (48, 48, 3) and set(np.unique(obs.cameras["top"].segmentation)) == {0, 1, 2}
     for camera in ("top", "front"):
-        found = OracleDetector(cameras=[camera]).detect(obs, ["red cube", "green zone"])
+        found = OracleDetector(OracleOptions(cameras=[camera])).detect(obs, ["red cube", "green zone"])
         assert np.abs(np.subtract(found["red cube"][:2], kinematic.world.cube[:2])).max() < 0.02, camera
         assert np.abs(np.subtract(found["green zone"][:2], kinematic.world.zone)).max() < 0.02, camera
 

@@ -22,6 +22,7 @@ from xicm.plugins.llms.fast_decode import greedy_decode, lookup_draft, plain_gre
 from xicm.plugins.llms.prefix_cache import PrefixCache, common_prefix_length
 from xicm.plugins.llms.stopping import StopRules, action_list_end, repeat_cut, repeat_fill, repeated_action_end
 from xicm.plugins.llms.transformers_local import TransformersLocalLLM
+from xicm.plugins.llms.transformers_local_options import TransformersLocalOptions
 
 torch = pytest.importorskip("torch")
 pytest.importorskip("transformers")
@@ -136,7 +137,7 @@ def test_common_prefix_length():
 # ---------------------------------------------------------------- tiny random model
 def tiny(tiny_gemma_dir, **options) -> TransformersLocalLLM:
     settings = {"model": str(tiny_gemma_dir), "max_new_tokens": 40, "device": "cpu", "chat_template": "raw", "stop": None}
-    llm = TransformersLocalLLM(grammar="none", **{**settings, **options})
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", **{**settings, **options}))
     llm.load()
     return llm
 
@@ -157,16 +158,16 @@ def test_fast_path_is_token_identical_to_plain_generate(tiny_gemma_dir):
     no_cache = tiny(tiny_gemma_dir, prefix_cache=False)
     reused = []
     for call in CALLS:
-        ids = plain.encode(call)
-        expected = plain.generate_ids(ids)
+        ids = plain.prompts.encode(call)
+        expected = plain.generator.generate_ids(ids)
         assert len(expected) == 40  # the random model never ends early: every token is compared
-        assert fast.generate_ids(ids) == expected
-        reused.append(fast.prefix_cache.reused_tokens)
-        assert one_token.generate_ids(ids) == expected
-        assert no_cache.generate_ids(ids) == expected
-    assert no_cache.prefix_cache.reused_tokens == 0
+        assert fast.generator.generate_ids(ids) == expected
+        reused.append(fast.generator.prefix_cache.reused_tokens)
+        assert one_token.generator.generate_ids(ids) == expected
+        assert no_cache.generator.generate_ids(ids) == expected
+    assert no_cache.generator.prefix_cache.reused_tokens == 0
     # one token per character after BOS: the reused prefix is the common text of consecutive prompts
-    texts = [plain.render(c) for c in CALLS]
+    texts = [plain.prompts.render(c) for c in CALLS]
     shared = [0] + [1 + len(os.path.commonprefix([a, b])) for a, b in itertools.pairwise(texts)]
     assert reused == shared
     assert shared[1] > shared[2] > shared[3] > 16  # a shorter common prefix rolls back, beyond the sliding window
@@ -174,17 +175,17 @@ def test_fast_path_is_token_identical_to_plain_generate(tiny_gemma_dir):
 
 def test_prefix_cache_hands_out_copies(tiny_gemma_dir):
     llm = tiny(tiny_gemma_dir)
-    ids = llm.encode(CALLS[0])
+    ids = llm.prompts.encode(CALLS[0])
     store = PrefixCache()
-    store.prepare(llm._model, ids)
+    store.prepare(llm.loaded.model, ids)
     before = [(k.clone(), v.clone()) for k, v in store._states]
-    cache = store.prepare(llm._model, ids)  # everything reused
+    cache = store.prepare(llm.loaded.model, ids)  # everything reused
     assert store.reused_tokens == len(ids) - 1 and store.computed_tokens == 0
-    greedy_decode(llm._model, cache, ids, 30, [], lambda out, checked: None, draft_tokens=8)
+    greedy_decode(llm.loaded.model, cache, ids, 30, [], lambda out, checked: None, draft_tokens=8)
     assert all(torch.equal(k, k0) and torch.equal(v, v0) for (k, v), (k0, v0) in zip(store._states, before))
     assert cache.get_seq_length() > len(ids)  # the decoding grew its own copy
     with pytest.raises(ValueError, match="at least 2 tokens"):
-        store.prepare(llm._model, ids[:1])
+        store.prepare(llm.loaded.model, ids[:1])
 
 
 def test_sampling_with_the_fast_path_matches_plain_sampling(tiny_gemma_dir):
@@ -193,13 +194,13 @@ def test_sampling_with_the_fast_path_matches_plain_sampling(tiny_gemma_dir):
     fast = tiny(tiny_gemma_dir, **options)
     for call in CALLS[:3]:
         assert fast.complete(make_prompt(call)) == plain.complete(make_prompt(call))
-    assert fast.prefix_cache.reused_tokens > 0
+    assert fast.generator.prefix_cache.reused_tokens > 0
 
 
 def test_batch_replies_equal_one_by_one_replies(tiny_gemma_dir):
     llm = tiny(tiny_gemma_dir, stop=["\n"])
     prompts = [make_prompt(c) for c in CALLS]
-    assert len({len(llm.encode(c)) for c in CALLS}) > 1  # rows really are padded
+    assert len({len(llm.prompts.encode(c)) for c in CALLS}) > 1  # rows really are padded
     one_by_one = [llm.complete(p) for p in prompts]
     assert llm.complete_batch(prompts) == one_by_one
     assert llm.complete_batch([]) == []
@@ -208,10 +209,10 @@ def test_batch_replies_equal_one_by_one_replies(tiny_gemma_dir):
 def test_options_and_identity(tiny_gemma_dir):
     with pytest.raises(ConfigError, match="^llm.draft_tokens must be an integer >= 0, not -1$"):
         get_registry().create("llm", {"name": "transformers_local", "model": str(tiny_gemma_dir), "draft_tokens": -1})
-    fast = json.loads(TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir)).identity())
-    plain = json.loads(TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), fast=False).identity())
+    fast = json.loads(TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir))).identity())
+    plain = json.loads(TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), fast=False)).identity())
     assert fast["stop_at_action_list"] is True and "stop_at_action_list" not in plain
-    no_stop = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), stop_at_action_list=False, draft_tokens=3, prefix_cache=False)
+    no_stop = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), stop_at_action_list=False, draft_tokens=3, prefix_cache=False))
     assert json.loads(no_stop.identity()) == plain  # these options never change a reply
 
 
@@ -247,8 +248,8 @@ def test_reply_stops_at_the_end_of_the_action_list(answering_dir):
     fast = tiny(answering_dir, max_new_tokens=80)
     reply = fast.complete(make_prompt(query))
     assert reply == " [[1, 2, 3, 4, 5, 6, 1], [7, 8, 9, 1, 2, 3, 0]]" == full[: action_list_end(full)]
-    ids = fast.encode(query)
-    assert len(fast.generate_ids(ids)) == len(fast._tokenizer(reply, add_special_tokens=False)["input_ids"])
+    ids = fast.prompts.encode(query)
+    assert len(fast.generator.generate_ids(ids)) == len(fast.loaded.tokenizer(reply, add_special_tokens=False)["input_ids"])
     assert parse_action_ints(reply) == parse_action_ints(full)[:2]
     # with the embedded config's newline stop, the plain reply is the first line
     line_plain = tiny(answering_dir, fast=False, max_new_tokens=80, stop="auto").complete(make_prompt(query))
@@ -256,7 +257,7 @@ def test_reply_stops_at_the_end_of_the_action_list(answering_dir):
     assert line_plain == ANSWER.split("\n")[0] and line_fast == reply
     # a model whose cache the fast path cannot reuse still stops at the action list (plain generate)
     fallback = tiny(answering_dir, max_new_tokens=80)
-    fallback._cache_supported = False
+    fallback.loaded.cache_supported = False
     assert fallback.complete(make_prompt(query)) == reply and fallback.last_call == {}
 
 
@@ -280,19 +281,19 @@ def test_embedded_gemma_fast_path_gives_the_plain_replies(capsys, smoke_pool):
 
     episodes = xicm_prompts(smoke_pool[0], n_episodes=1, calls_per_episode=2, k=4)
     options = {"max_new_tokens": 96, "chat_template": "raw", "max_prompt_tokens": 8192}
-    plain = TransformersLocalLLM(grammar="none", fast=False, **options)
-    fast = TransformersLocalLLM(grammar="none", **options)
+    plain = TransformersLocalLLM(TransformersLocalOptions(grammar="none", fast=False, **options))
+    fast = TransformersLocalLLM(TransformersLocalOptions(grammar="none", **options))
     for prompt in episodes[0]:
-        ids = plain.encode(prompt.messages)
-        plain_ids, fast_ids = plain.generate_ids(ids), fast.generate_ids(ids)
+        ids = plain.prompts.encode(prompt.messages)
+        plain_ids, fast_ids = plain.generator.generate_ids(ids), fast.generator.generate_ids(ids)
         expected, reply = plain.reply(plain_ids), fast.reply(fast_ids)
         with capsys.disabled():
-            print(f"\nplain: {expected!r}\nfast:  {reply!r} (reused {fast.prefix_cache.reused_tokens} tokens)")
+            print(f"\nplain: {expected!r}\nfast:  {reply!r} (reused {fast.generator.prefix_cache.reused_tokens} tokens)")
         assert fast_ids == plain_ids[: len(fast_ids)]  # token-identical up to where the fast path stops
         end = action_list_end(expected)
         assert reply == (expected if end is None else expected[:end])
         assert parse_actions(reply, prompt.workspace) == parse_actions(expected, prompt.workspace)
-    assert fast.prefix_cache.reused_tokens > 0.8 * len(fast.encode(episodes[0][1].messages))
+    assert fast.generator.prefix_cache.reused_tokens > 0.8 * len(fast.prompts.encode(episodes[0][1].messages))
 
 
 def test_every_transformers_local_config_passes_the_options_schema():

@@ -88,9 +88,10 @@ torch = pytest.importorskip("torch")
 
 def tiny(tiny_gemma_dir, **options):
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
+    from xicm.plugins.llms.transformers_local_options import TransformersLocalOptions
 
     settings = {"model": str(tiny_gemma_dir), "max_new_tokens": 120, "device": "cpu", "chat_template": "raw", "stop": None}
-    llm = TransformersLocalLLM(**{**settings, **options})
+    llm = TransformersLocalLLM(TransformersLocalOptions(**{**settings, **options}))
     llm.load()
     return llm
 
@@ -109,12 +110,12 @@ def test_grammar_fast_loop_equals_grammar_constrained_generate(tiny_gemma_dir):
     }
     free = tiny(tiny_gemma_dir, grammar="none")
     for messages in CALLS:
-        ids = plain.encode(messages)
-        expected = plain.generate_ids(ids)
+        ids = plain.prompts.encode(messages)
+        expected = plain.generator.generate_ids(ids)
         text = plain.reply(expected)
         assert re.fullmatch(ACTIONS_REGEX, text), text
         for name, llm in variants.items():
-            assert llm.generate_ids(ids) == [t for t in expected if t != plain._tokenizer.eos_token_id], name
+            assert llm.generator.generate_ids(ids) == [t for t in expected if t != plain.loaded.tokenizer.eos_token_id], name
         assert re.fullmatch(ACTIONS_REGEX, free.complete_messages(messages)) is None  # the random model rambles
 
 
@@ -145,7 +146,7 @@ def test_repeated_action_stop(tiny_gemma_dir, repeating_dir, mode):
     from xicm.plugins.llms.stopping import repeat_cut, repeated_action_end
 
     prompts = [Prompt(messages=m, demos=[], query=Query("t", "i", {}), workspace=WS) for m in CALLS]
-    assert tiny(tiny_gemma_dir).on_repeated_action == "decode"  # opt-in
+    assert tiny(tiny_gemma_dir).generator.on_repeated_action == "decode"  # opt-in
     repeats = {}
     for name, folder in (("random", tiny_gemma_dir), ("repeating", repeating_dir)):
         whole = tiny(folder)
@@ -169,7 +170,7 @@ def test_repeated_action_stop(tiny_gemma_dir, repeating_dir, mode):
         assert 2 < len(parse_action_ints(tiny(repeating_dir).complete_messages(CALLS[0]))) < 26
         filler = tiny(repeating_dir, on_repeated_action="fill")
         filler.complete_messages(CALLS[0])
-        assert filler.last_call["new_tokens"] < tiny(repeating_dir).max_new_tokens
+        assert filler.last_call["new_tokens"] < tiny(repeating_dir).options.max_new_tokens
 
 
 def test_grammar_in_batches_and_sampling(tiny_gemma_dir):
@@ -188,22 +189,23 @@ def test_grammar_in_batches_and_sampling(tiny_gemma_dir):
 def test_grammar_option_identity_and_errors(tiny_gemma_dir):
     from xicm.core.plugins import get_registry
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
+    from xicm.plugins.llms.transformers_local_options import TransformersLocalOptions
 
-    on = json.loads(TransformersLocalLLM(model=str(tiny_gemma_dir)).identity())
-    off = json.loads(TransformersLocalLLM(model=str(tiny_gemma_dir), grammar="none").identity())
-    same_reply = json.loads(TransformersLocalLLM(model=str(tiny_gemma_dir), reduced_output_layer=False).identity())
-    cut = json.loads(TransformersLocalLLM(model=str(tiny_gemma_dir), on_repeated_action="cut").identity())
-    fill = json.loads(TransformersLocalLLM(model=str(tiny_gemma_dir), on_repeated_action="fill").identity())
-    free_fill = TransformersLocalLLM(model=str(tiny_gemma_dir), grammar="none", on_repeated_action="fill")
+    on = json.loads(TransformersLocalLLM(TransformersLocalOptions(model=str(tiny_gemma_dir))).identity())
+    off = json.loads(TransformersLocalLLM(TransformersLocalOptions(model=str(tiny_gemma_dir), grammar="none")).identity())
+    same_reply = json.loads(TransformersLocalLLM(TransformersLocalOptions(model=str(tiny_gemma_dir), reduced_output_layer=False)).identity())
+    cut = json.loads(TransformersLocalLLM(TransformersLocalOptions(model=str(tiny_gemma_dir), on_repeated_action="cut")).identity())
+    fill = json.loads(TransformersLocalLLM(TransformersLocalOptions(model=str(tiny_gemma_dir), on_repeated_action="fill")).identity())
+    free_fill = TransformersLocalLLM(TransformersLocalOptions(model=str(tiny_gemma_dir), grammar="none", on_repeated_action="fill"))
     assert on["grammar"] == "actions" and "grammar" not in off  # grammar none: today's identity
     assert cut["on_repeated_action"] == "cut" and fill["on_repeated_action"] == "fill"
     assert "on_repeated_action" not in on | off
-    assert free_fill.on_repeated_action == "decode"  # fill needs the grammar: free replies are whole
+    assert free_fill.generator.on_repeated_action == "decode"  # fill needs the grammar: free replies are whole
     with pytest.raises(ConfigError, match=r"llm.on_repeated_action 'stop' is not one of: decode, cut, fill"):
-        TransformersLocalLLM(model=str(tiny_gemma_dir), on_repeated_action="stop")
+        TransformersLocalLLM(TransformersLocalOptions(model=str(tiny_gemma_dir), on_repeated_action="stop"))
     assert same_reply == on  # the reduced output layer never changes a reply
     with pytest.raises(ConfigError, match=r"llm.grammar 'json' is unknown; allowed: none, actions"):
-        TransformersLocalLLM(model=str(tiny_gemma_dir), grammar="json")
+        TransformersLocalLLM(TransformersLocalOptions(model=str(tiny_gemma_dir), grammar="json"))
     with pytest.raises(ConfigError, match=r"llm.grammar"):
         get_registry().check_options("llm", {"name": "transformers_local", "grammar": "json"})
 
@@ -231,19 +233,20 @@ def test_embedded_gemma_reduced_output_layer_gives_the_full_vocabulary_replies(c
     from xicm.plugins.llms import model_files as mf
     from xicm.plugins.llms.stopping import repeat_cut
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
+    from xicm.plugins.llms.transformers_local_options import TransformersLocalOptions
 
     mf.embedded_model_dir()
     episodes = xicm_prompts(smoke_pool[0], n_episodes=2, calls_per_episode=1, k=4)
     options = {"max_new_tokens": 96, "chat_template": "raw", "max_prompt_tokens": 8192}
-    reduced = TransformersLocalLLM(**options)
-    full = TransformersLocalLLM(reduced_output_layer=False, **options)
-    cut = TransformersLocalLLM(on_repeated_action="cut", **options)
-    fill = TransformersLocalLLM(on_repeated_action="fill", **options)
-    full._matchers = cut._matchers = fill._matchers = reduced.matchers()  # one tokenizer conversion for all
+    reduced = TransformersLocalLLM(TransformersLocalOptions(**options))
+    full = TransformersLocalLLM(TransformersLocalOptions(reduced_output_layer=False, **options))
+    cut = TransformersLocalLLM(TransformersLocalOptions(on_repeated_action="cut", **options))
+    fill = TransformersLocalLLM(TransformersLocalOptions(on_repeated_action="fill", **options))
+    full.generator._matchers = cut.generator._matchers = fill.generator._matchers = reduced.generator.matchers()  # one tokenizer conversion for all
     for calls in episodes:
         prompt = calls[0]
-        ids = reduced.encode(prompt.messages)
-        a, b = reduced.generate_ids(ids), full.generate_ids(ids)
+        ids = reduced.prompts.encode(prompt.messages)
+        a, b = reduced.generator.generate_ids(ids), full.generator.generate_ids(ids)
         text = reduced.reply(a)
         with capsys.disabled():
             print(f"\nreduced: {text!r}")

@@ -22,6 +22,7 @@ from xicm.core.parsing import parse_actions
 from xicm.plugins.llms import llamacpp_server
 from xicm.plugins.llms.action_grammar import ACTIONS_REGEX
 from xicm.plugins.llms.llamacpp import LlamaCppLLM
+from xicm.plugins.llms.llamacpp_options import LlamaCppOptions
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 DEMOS = "".join(f"['instruction': task {i}, {{'cube': [{i}, 2, 3]}}]>[[{i}, 2, 3, 4, 5, 6, 1]], " for i in range(30))
@@ -45,8 +46,8 @@ def make_llm(server_binary, tiny_model):
     made = []
 
     def make(**options):
-        llm = LlamaCppLLM(**{"model": str(tiny_model), "binary": str(server_binary), "threads": 1,
-                             "ctx_size": 4096, "chat_template": "raw", "max_tokens": 800, **options})
+        llm = LlamaCppLLM(LlamaCppOptions(**{"model": str(tiny_model), "binary": str(server_binary), "threads": 1,
+                             "ctx_size": 4096, "chat_template": "raw", "max_tokens": 800, **options}))
         made.append(llm)
         return llm
 
@@ -135,8 +136,8 @@ def test_stop_ends_the_server_and_frees_its_port(make_llm):
 def test_a_sigkilled_owner_leaves_no_server_and_no_port(server_binary, tiny_model):
     code = (
         "import sys, time\n"
-        "from xicm.plugins.llms.llamacpp import LlamaCppLLM\n"
-        f"llm = LlamaCppLLM(model={str(tiny_model)!r}, binary={str(server_binary)!r}, threads=1, ctx_size=512, chat_template='raw')\n"
+        "from xicm.plugins.llms.llamacpp import LlamaCppLLM, LlamaCppOptions\n"
+        f"llm = LlamaCppLLM(LlamaCppOptions(model={str(tiny_model)!r}, binary={str(server_binary)!r}, threads=1, ctx_size=512, chat_template='raw'))\n"
         "llm.start()\n"
         "print(llm._server.process.pid, llm._server.port, flush=True)\n"
         "time.sleep(120)\n"
@@ -163,13 +164,13 @@ def test_a_prompt_that_does_not_fit_is_one_sentence(make_llm):
 
 def test_a_missing_binary_or_model_is_one_sentence(tmp_path, monkeypatch, tiny_model):
     with pytest.raises(ConfigError, match="llm.binary /nonexistent/llama-server is not an executable file"):
-        LlamaCppLLM(model=str(tiny_model), binary="/nonexistent/llama-server").start()
+        LlamaCppLLM(LlamaCppOptions(model=str(tiny_model), binary="/nonexistent/llama-server")).start()
     with pytest.raises(ConfigError, match="llm.model 'nope.gguf' is neither a catalogued model"):
-        LlamaCppLLM(model="nope.gguf").start()
+        LlamaCppLLM(LlamaCppOptions(model="nope.gguf")).start()
     monkeypatch.setenv("XICM_CACHE", str(tmp_path))
     monkeypatch.setattr(llamacpp_server.shutil, "which", lambda tool: None if tool == "cmake" else "/usr/bin/" + tool)
     with pytest.raises(ConfigError, match=r"building llama-server needs cmake, not found; install them \(Debian: apt-get install -y cmake"):
-        LlamaCppLLM(model=str(tiny_model)).start()
+        LlamaCppLLM(LlamaCppOptions(model=str(tiny_model))).start()
 
 
 def test_a_server_that_died_between_calls_is_started_again(make_llm, capsys):
@@ -184,7 +185,7 @@ def test_a_server_that_died_between_calls_is_started_again(make_llm, capsys):
 
 
 def test_identity_names_model_and_decoding():
-    llm = LlamaCppLLM(model="qwen2_5_coder_0_5b", temperature=0.1, top_p=0.001, repeat_penalty=1.05, repeat_last_n=-1)
+    llm = LlamaCppLLM(LlamaCppOptions(model="qwen2_5_coder_0_5b", temperature=0.1, top_p=0.001, repeat_penalty=1.05, repeat_last_n=-1))
     identity = llm.identity()
     for part in ('"model": "qwen2_5_coder_0_5b"', '"repeat_last_n": -1', '"grammar": "actions"', '"seed": 0'):
         assert part in identity
@@ -192,7 +193,7 @@ def test_identity_names_model_and_decoding():
 
 
 def test_stop_at_action_list_is_in_the_identity_only_when_it_cuts():
-    whole = LlamaCppLLM(model="qwen2_5_coder_0_5b")
-    cut = LlamaCppLLM(model="qwen2_5_coder_0_5b", stop_at_action_list=True)
+    whole = LlamaCppLLM(LlamaCppOptions(model="qwen2_5_coder_0_5b"))
+    cut = LlamaCppLLM(LlamaCppOptions(model="qwen2_5_coder_0_5b", stop_at_action_list=True))
     assert "stop_at_action_list" not in whole.identity()  # replies cached before the option stay valid
     assert '"stop_at_action_list": true' in cut.identity() and cut.stop_at_action_list

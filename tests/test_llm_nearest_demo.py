@@ -14,7 +14,7 @@ from xicm.core.errors import ConfigError
 from xicm.core.plugins import Registry
 from xicm.core.types import Demo, KeyAction, Prompt, Query
 from xicm.plugins.llms import nearest_demo
-from xicm.plugins.llms.nearest_demo import NearestDemoLLM, reanchor
+from xicm.plugins.llms.nearest_demo import NearestDemoLLM, NearestDemoOptions, reanchor
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 Q1 = (0.0, 1.0, 0.0, 0.0)
@@ -90,7 +90,7 @@ def test_uses_the_best_demo_only():
     other = demo({"jar": (0.0, 0.0, 0.8)}, [act(0.0, 0.3, 1.2), act(0.0, 0.3, 1.1)], "other")
     p = prompt([best, other], {"jar": (0.2, 0.1, 0.8)})
     assert NearestDemoLLM().complete(p) == format_actions([act(0.2, 0.1, 0.9)], WS)
-    assert len(ints(NearestDemoLLM(demo_rank=1).complete(p))) == 2
+    assert len(ints(NearestDemoLLM(NearestDemoOptions(demo_rank=1)).complete(p))) == 2
 
 
 def test_fallbacks():
@@ -122,7 +122,7 @@ def test_registered_as_plugin_and_identity():
 def test_nearest_demo_is_never_served_from_the_message_keyed_cache(tmp_path):
     """Two queries whose text rounds to the same voxels must still get their own replies."""
     from xicm.plugins.policies.xicm.llm_cache import CachedLLM
-    from xicm.plugins.llms.nearest_demo import NearestDemoLLM
+    from xicm.plugins.llms.nearest_demo import NearestDemoLLM, NearestDemoOptions
 
     assert CachedLLM(NearestDemoLLM(), tmp_path / "c.sqlite").enabled is False
 

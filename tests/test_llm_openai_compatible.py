@@ -28,6 +28,7 @@ from xicm.core.types import Prompt, Query
 from xicm.plugins.llms import openai_compatible
 from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX
 from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
+from xicm.plugins.llms.openai_compatible_options import OpenAICompatibleOptions
 from xicm.plugins.llms.rendering import render_plain, render_raw
 from xicm.serving.ports import free_port, stop_process, wait_http_ok
 
@@ -125,7 +126,7 @@ def fake():
 def llm(fake, **kw) -> OpenAICompatibleLLM:
     options = {"model": "test-model", "base_url": fake.base_url, "timeout_s": 5.0}
     options.update(kw)
-    return OpenAICompatibleLLM(**options)
+    return OpenAICompatibleLLM(OpenAICompatibleOptions(**options))
 
 
 def test_chat_mode_request_and_reply(fake):
@@ -230,7 +231,7 @@ def test_timeout_is_bounded_and_retried(fake):
 
 def test_unreachable_server():
     port = free_port()  # nothing listens there
-    client = OpenAICompatibleLLM(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=1)
+    client = OpenAICompatibleLLM(OpenAICompatibleOptions(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=1))
     with pytest.raises(LLMError, match=r"failed after 2 attempt\(s\): cannot connect \(.*refused"):
         client.complete(make_prompt())
 
@@ -253,17 +254,17 @@ def test_a_dead_server_is_one_sentence_at_start_without_retries():
     port = free_port()
     start = time.perf_counter()
     with pytest.raises(ConfigError, match=rf"llm.base_url: no OpenAI-compatible server answered at http://127.0.0.1:{port}/v1/models"):
-        OpenAICompatibleLLM(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=3).check_ready()
+        OpenAICompatibleLLM(OpenAICompatibleOptions(model="m", base_url=f"http://127.0.0.1:{port}/v1", retries=3)).check_ready()
     assert time.perf_counter() - start < 5  # no retries with backoff
 
 
 def test_config_errors_and_registration():
     with pytest.raises(ConfigError, match="needs a model name"):
-        OpenAICompatibleLLM(base_url="http://127.0.0.1:1/v1")
+        OpenAICompatibleLLM(OpenAICompatibleOptions(base_url="http://127.0.0.1:1/v1"))
     with pytest.raises(ConfigError, match="available: chat, completion"):
-        OpenAICompatibleLLM(model="m", mode="stream")
+        OpenAICompatibleLLM(OpenAICompatibleOptions(model="m", mode="stream"))
     with pytest.raises(ConfigError, match="not an http"):
-        OpenAICompatibleLLM(model="m", base_url="127.0.0.1:8000")
+        OpenAICompatibleLLM(OpenAICompatibleOptions(model="m", base_url="127.0.0.1:8000"))
     pm = pluggy.PluginManager("xicm")
     pm.add_hookspecs(hookspecs)
     pm.register(openai_compatible, name="xicm.plugins.llms.openai_compatible")
@@ -273,7 +274,7 @@ def test_config_errors_and_registration():
     identity = json.loads(client.identity())
     assert identity["model"] == "m" and identity["temperature"] == 0.1 and identity["mode"] == "chat"
     assert client.deterministic  # top_p 0.001
-    assert not OpenAICompatibleLLM(model="m", temperature=0.7, top_p=0.9).deterministic
+    assert not OpenAICompatibleLLM(OpenAICompatibleOptions(model="m", temperature=0.7, top_p=0.9)).deterministic
     with pytest.raises(ConfigError, match="unknown option.*timeout"):
         registry.create("llm", {"name": "openai_compatible", "model": "m", "timeout": 3})
     with pytest.raises(ConfigError, match="unknown option.*backoff_s"):  # the openai client's backoff is not configurable
@@ -327,10 +328,7 @@ SERVED_MESSAGES = [{
 def test_transformers_serve_completes_greedily_the_same_twice(served_model, capsys):
     folder, base = served_model
     # The server is pinned to the folder: the request's model must be that path.
-    completion = OpenAICompatibleLLM(
-        model=str(folder), base_url=base, mode="completion", completion_format="raw",
-        temperature=0.0, top_p=None, max_tokens=24, timeout_s=300, retries=1, server="none",
-    )
+    completion = OpenAICompatibleLLM(OpenAICompatibleOptions(model=str(folder), base_url=base, mode="completion", completion_format="raw", temperature=0.0, top_p=None, max_tokens=24, timeout_s=300, retries=1, server="none"))
     start = time.monotonic()
     first = completion.complete(make_prompt(SERVED_MESSAGES))
     first_s = time.monotonic() - start
@@ -345,8 +343,7 @@ def test_transformers_serve_completes_greedily_the_same_twice(served_model, caps
 @pytest.mark.llm_model
 def test_transformers_serve_refuses_chat_for_a_model_without_chat_template(served_model):
     folder, base = served_model
-    chat = OpenAICompatibleLLM(model=str(folder), base_url=base, mode="chat", max_tokens=8, timeout_s=120, retries=0,
-                               server="none")
+    chat = OpenAICompatibleLLM(OpenAICompatibleOptions(model=str(folder), base_url=base, mode="chat", max_tokens=8, timeout_s=120, retries=0, server="none"))
     # transformers serve answered HTTP 500 up to transformers 5.24 and 400 from 5.25 (a fresh install on 2026-12-03)
     with pytest.raises(LLMError, match=r"/v1/chat/completions failed after 1 attempt\(s\): HTTP (?:400|500)"):
         chat.complete(make_prompt(SERVED_MESSAGES))
@@ -358,18 +355,21 @@ def test_transformers_serve_refusing_the_grammar_field_names_the_option_to_chang
     """`transformers serve` has no structured outputs and refuses vLLM's field (HTTP 422): the
     episode's error says to set llm.server, instead of only the server's complaint."""
     folder, base = served_model
-    llm = OpenAICompatibleLLM(model=str(folder), base_url=base, mode="completion", completion_format="raw",
-                              max_tokens=4, timeout_s=120, retries=0)  # grammar actions, server vllm: the defaults
+    llm = OpenAICompatibleLLM(OpenAICompatibleOptions(model=str(folder), base_url=base, mode="completion", completion_format="raw", max_tokens=4, timeout_s=120, retries=0))  # grammar actions, server vllm: the defaults
     with pytest.raises(LLMError, match=r"HTTP 422 .*structured_outputs.*; the server did not take llm.server=vllm's "
                                        r"structured-output field: set llm.server to its kind \(vllm, sglang, llamacpp\) or none"):
         llm.complete(make_prompt(SERVED_MESSAGES))
 
 
 def test_hydra_style_options_are_plain_json(fake):
+    """The registry hands the LLM its options as plain values, however the config held them."""
     from omegaconf import OmegaConf
 
-    options = OmegaConf.create({"extra": {"stop": ["\n"], "seed": 1}})
-    client = llm(fake, extra=options.extra)
+    from xicm.core.plugins import get_registry
+
+    options = OmegaConf.create({"name": "openai_compatible", "model": "test-model", "base_url": fake.base_url,
+                                "extra": {"stop": ["\n"], "seed": 1}})
+    client = get_registry().create("llm", options)
     client.complete(make_prompt())
     assert fake.requests[-1]["body"]["stop"] == ["\n"] and fake.requests[-1]["body"]["seed"] == 1
     assert json.loads(client.identity())["extra"] == {"seed": 1, "stop": ["\n"]}

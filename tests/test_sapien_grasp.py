@@ -82,7 +82,8 @@ def test_a_task_declares_its_graspable_objects_else_its_dynamic_actors(sims):
 
 
 def test_an_unknown_grasp_mode_is_one_clear_sentence():
-    from xicm.plugins.simulators.sapien.simulator import SapienSimulator
+    from xicm.core.errors import ConfigError
+    from xicm.core.plugins import get_registry
 
-    with pytest.raises(ValueError, match="simulator option grasp is 'glue'; allowed: attach, friction"):
-        SapienSimulator(render=False, grasp="glue", tasks={})
+    with pytest.raises(ConfigError, match="^simulator.grasp must be one of attach, friction, not 'glue'$"):
+        get_registry().create_simulator({"name": "sapien", "render": False, "grasp": "glue"})

@@ -59,9 +59,10 @@ def test_each_task_module_is_named_after_its_task_and_titled_with_its_split(regi
 
 
 def test_the_simulator_loads_only_the_tasks_it_is_given(registry):
+    from xicm.plugins.simulators.sapien.options import SapienOptions
     from xicm.plugins.simulators.sapien.simulator import SapienSimulator
 
-    sim = SapienSimulator(render=False, tasks={"drawer": registry.tasks(simulator="sapien")["open_drawer"]})
+    sim = SapienSimulator(SapienOptions(render=False), tasks={"drawer": registry.tasks(simulator="sapien")["open_drawer"]})
     try:
         assert sim.task_names() == ["drawer"] and sim.task_info("drawer").split == "seen"
         sim.reset_state("drawer", 0, 0)

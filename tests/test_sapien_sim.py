@@ -179,9 +179,10 @@ def test_unreachable_pose_is_reported_not_raised(physics_sim, position, quat, wh
 
 
 def test_execute_without_a_task_is_a_sim_error():
+    from xicm.plugins.simulators.sapien.options import SapienOptions
     from xicm.plugins.simulators.sapien.simulator import SapienSimulator
 
-    fresh = SapienSimulator(render=False, tasks={})
+    fresh = SapienSimulator(SapienOptions(render=False), tasks={})
     outcome = fresh.execute(KeyAction((0.2, 0.0, 1.0), (0, 1, 0, 0), True))
     assert not outcome.ok and outcome.error_kind == "sim_error"
     assert "reset" in outcome.error_message

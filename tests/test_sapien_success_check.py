@@ -73,10 +73,11 @@ def test_knife_on_the_board_then_let_go_latches_per_frame(sims, monkeypatch):
 
 
 def test_an_unknown_success_check_is_one_clear_sentence():
-    from xicm.plugins.simulators.sapien.simulator import SapienSimulator
+    from xicm.core.errors import ConfigError
+    from xicm.core.plugins import get_registry
 
-    with pytest.raises(ValueError, match="simulator option success_check is 'often'; allowed: per_action, per_frame"):
-        SapienSimulator(render=False, success_check="often", tasks={})
+    with pytest.raises(ConfigError, match="^simulator.success_check must be one of per_action, per_frame, not 'often'$"):
+        get_registry().create_simulator({"name": "sapien", "render": False, "success_check": "often"})
 
 
 def test_gripper_after_success_runs_the_command_and_reads_success_once():

@@ -42,7 +42,8 @@ def test_scene_seed_is_checked_by_the_config_schema():
     from xicm.core.errors import ConfigError
     from xicm.core.schema import check_options
 
-    base = {"name": "b", "tasks": ["close_jar"], "pool": "p", "pool_tasks": ["close_jar"]}
+    base = {"name": "b", "tasks": ["close_jar"], "pool": "p", "pool_tasks": ["close_jar"], "variations": "sampled",
+            "instructions": "agnostos"}
     for ok in (None, 0, 7):
         check_options({**base, "scene_seed": ok}, Benchmark, prefix="benchmark", owner="benchmark")
     with pytest.raises(ConfigError, match="scene_seed"):

@@ -97,4 +97,4 @@ def test_the_paper_presets_draw_rlbench_scenes_and_the_default_config_does_not(p
         paper = compose("config", overrides=[f"+experiment={preset}"])
         plain = compose("config")
     assert paper.simulator.scenes == "rlbench"
-    assert "scenes" not in plain.simulator  # the simulator's own default (ours) applies
+    assert plain.simulator.scenes == "ours"  # sapien.yaml declares the default

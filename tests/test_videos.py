@@ -52,7 +52,7 @@ def test_oracle_episode_writes_a_pass_video_with_every_kth_control_frame(sim, tm
 
 
 def test_a_failed_episode_video_says_fail_and_a_rerun_replaces_it(sim, tmp_path):
-    settings = VideoSettings(tmp_path, every=4)
+    settings = VideoSettings(tmp_path, camera="front", fps=20, every=4)
     failed = run_episode(sim, OraclePolicy(sim), TASK, 0, 1, max_steps=1, video=settings)
     assert not failed.success and failed.extra["video"].endswith("s0-e0001-FAIL.mp4")
     assert _frames(tmp_path / failed.extra["video"]) == failed.extra["video_frames"] >= 2
@@ -63,7 +63,7 @@ def test_a_failed_episode_video_says_fail_and_a_rerun_replaces_it(sim, tmp_path)
 
 def test_a_simulator_without_frame_callbacks_gets_one_picture_per_key_action(sim, tmp_path, monkeypatch):
     monkeypatch.setattr(sim, "set_frame_callback", lambda callback: False)
-    result = run_episode(sim, OraclePolicy(sim), TASK, 0, 0, video=VideoSettings(tmp_path))
+    result = run_episode(sim, OraclePolicy(sim), TASK, 0, 0, video=VideoSettings(tmp_path, camera="front", fps=20, every=1))
     assert result.success and result.extra["video_frames"] == 1 + result.steps == _frames(tmp_path / result.extra["video"])
 
 
@@ -94,7 +94,7 @@ def test_a_broken_video_writer_leaves_the_episode_unchanged_and_is_recorded(sim,
             raise RuntimeError("No ffmpeg exe could be found. Install ffmpeg on your system")
     monkeypatch.setattr(imageio, "get_writer", broken)
     monkeypatch.setattr(video_module, "_warned", False)
-    results = [run_episode(sim, OraclePolicy(sim), TASK, 0, 0, video=VideoSettings(tmp_path)) for _ in range(2)]
+    results = [run_episode(sim, OraclePolicy(sim), TASK, 0, 0, video=VideoSettings(tmp_path, camera="front", fps=20, every=1)) for _ in range(2)]
     for r in results:
         assert (r.success, r.steps, r.error_kind) == (plain.success, plain.steps, plain.error_kind) == (True, plain.steps, None)
         assert "video" not in r.extra
@@ -105,17 +105,21 @@ def test_a_broken_video_writer_leaves_the_episode_unchanged_and_is_recorded(sim,
 
 
 def test_an_unknown_camera_is_a_video_error_not_an_episode_error(sim, tmp_path):
-    result = run_episode(sim, OraclePolicy(sim), TASK, 0, 0, video=VideoSettings(tmp_path, camera="ceiling"))
+    result = run_episode(sim, OraclePolicy(sim), TASK, 0, 0, video=VideoSettings(tmp_path, camera="ceiling", fps=20, every=1))
     assert result.success and "ceiling" in result.extra["video_error"]
 
 
 def test_video_settings_come_from_the_video_keys(tmp_path):  # their bad values: tests/test_config_schema.py
+    from omegaconf import OmegaConf
+
     video = {"enabled": True, "camera": "overhead", "fps": 12.5, "every": 3}
-    assert VideoSettings.from_config({"video": video}, tmp_path) == VideoSettings(tmp_path, "overhead", 12.5, 3)
-    assert VideoSettings.from_config({"video": {**video, "enabled": False}}, tmp_path) is None
+    assert VideoSettings.from_config(OmegaConf.create(video), tmp_path) == VideoSettings(tmp_path, "overhead", 12.5, 3)
+    assert VideoSettings.from_config(OmegaConf.create({**video, "enabled": False}), tmp_path) is None
 
 
 class _SameReply(LLM):
+    deterministic = True
+
     def complete(self, prompt):
         return "[[40, 50, 40, 0, 36, 36, 1]]"  # reachable, solves nothing
 

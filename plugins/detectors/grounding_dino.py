@@ -24,7 +24,6 @@ Options:
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import List, Optional
@@ -100,18 +99,12 @@ def lift_box(frame: CameraFrame, box_xyxy) -> np.ndarray | None:
 
 
 class GroundingDinoDetector(Detector):
-    def __init__(
-        self,
-        model: str = DEFAULT_MODEL,
-        box_threshold: float = 0.35,
-        text_threshold: float = 0.25,
-        cameras: Iterable[str] | None = None,
-        device: str = "cpu",
-    ):
-        self.model_name = str(model)
-        self.box_threshold, self.text_threshold = float(box_threshold), float(text_threshold)
-        self.cameras = None if cameras is None else list(cameras)
-        self.device = str(device)
+    def __init__(self, options: GroundingDinoOptions | None = None):
+        o = options if options is not None else GroundingDinoOptions()
+        self.model_name = o.model
+        self.box_threshold, self.text_threshold = o.box_threshold, o.text_threshold
+        self.cameras = None if o.cameras is None else list(o.cameras)
+        self.device = o.device
         self.processor, self.model = load_grounding_dino(self.model_name, self.device)
         self.seconds: list[float] = []  # per detect() call, for benchmarks
 

@@ -39,19 +39,12 @@ class NoisyOracleOptions(OracleOptions):
 
 
 class NoisyOracleDetector(OracleDetector):
-    def __init__(
-        self,
-        noise_cm: float = 0.0,
-        drop_prob: float = 0.0,
-        swap_prob: float = 0.0,
-        seed: int = 0,
-        cameras=None,
-        min_pixels: int = 1,
-    ):
-        super().__init__(cameras=cameras, min_pixels=min_pixels)
-        self.noise_m = float(noise_cm) / 100.0
-        self.drop_prob, self.swap_prob = float(drop_prob), float(swap_prob)
-        self.seed = int(seed)
+    def __init__(self, options: NoisyOracleOptions | None = None):
+        o = options if options is not None else NoisyOracleOptions()
+        super().__init__(o)
+        self.noise_m = o.noise_cm / 100.0
+        self.drop_prob, self.swap_prob = o.drop_prob, o.swap_prob
+        self.seed = o.seed
 
     def detect(self, obs: Observation, names: list[str]) -> dict[str, tuple[float, float, float]]:
         truth = super().detect(obs, names)

@@ -15,7 +15,6 @@ Options:
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import List, Optional
 
@@ -56,9 +55,10 @@ def backproject(frame: CameraFrame, mask: np.ndarray) -> np.ndarray:
 class OracleDetector(Detector):
     """Object centres from ground-truth segmentation + depth (no simulator poses)."""
 
-    def __init__(self, cameras: Iterable[str] | None = None, min_pixels: int = 1):
-        self.cameras = None if cameras is None else list(cameras)
-        self.min_pixels = max(1, int(min_pixels))
+    def __init__(self, options: OracleOptions | None = None):
+        o = options if options is not None else OracleOptions()
+        self.cameras = None if o.cameras is None else list(o.cameras)
+        self.min_pixels = o.min_pixels
 
     def _frames(self, obs: Observation) -> list[CameraFrame]:
         if self.cameras is None:

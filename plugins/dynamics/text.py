@@ -40,9 +40,9 @@ class MiniLMText(TextEncoder):
     dim = 384
 
     def __init__(self, device: str = "cpu"):
-        from xicm.plugins.encoders.minilm import MiniLMEncoder
+        from xicm.plugins.encoders.minilm import MiniLMEncoder, MiniLMOptions
 
-        self._encoder = MiniLMEncoder(device=device)
+        self._encoder = MiniLMEncoder(MiniLMOptions(device=device))
         self.key = "minilm:" + self._encoder.cache_key()
 
     def encode(self, texts: list[str]) -> tuple[torch.Tensor, np.ndarray]:

@@ -67,14 +67,14 @@ def run_training(cfg: DictConfig) -> dict[str, Any]:
     if train_cfg.threads:
         torch.set_num_threads(int(train_cfg.threads))
     res = int(model_cfg["resolution"])
-    tasks = list(cfg.tasks) if cfg.get("tasks") else None
+    tasks = list(cfg.tasks) if cfg.tasks else None
     pairs = load_pairs(cfg.pool_path, tasks)
     train_set, heldout = split(pairs, int(train_cfg.heldout_every))
     text_spec = OmegaConf.to_container(cfg.text_encoder, resolve=True)
     text = text_encoder(text_spec)
     context, _ = embed_unique(text, train_set.instructions)
     first, last = to_model(train_set.first, res), to_model(train_set.last, res)
-    target = str(model_cfg.get("target", "residual"))
+    target = str(model_cfg["target"])
     meta = {
         "target": target,
         "target_scale": round(1.0 / max(float((last - first).std()), 1e-3), 4),

@@ -89,32 +89,22 @@ def _load(folder: Path, device: str):
 class DynamicsEncoder(Encoder):
     uses_images = True
 
-    def __init__(
-        self,
-        checkpoint: str,
-        mode: str = "predicted_frame",
-        visual: str = "change",
-        steps: int = 1,
-        seed: int = 0,
-        text_weight: float = 0.5,
-        batch_size: int = 64,
-        device: str = "cpu",
-        normalise: bool = True,
-    ):
+    def __init__(self, options: DynamicsEncoderOptions):
         from xicm.plugins.dynamics.model import checkpoint_hash, read_meta
 
-        if not normalise and float(text_weight) != 0:
+        o = options
+        if not o.normalise and o.text_weight != 0:
             raise ConfigError(
-                f"encoder.normalise=false returns the raw visual feature alone, so encoder.text_weight must be 0 (got {text_weight:g})"
+                f"encoder.normalise=false returns the raw visual feature alone, so encoder.text_weight must be 0 (got {o.text_weight:g})"
             )
 
-        self.folder = resolve_checkpoint(checkpoint)
+        self.folder = resolve_checkpoint(o.checkpoint)
         self.meta = read_meta(self.folder)
-        self.mode, self.visual = mode, visual
-        self.steps, self.seed = int(steps), int(seed)
-        self.text_weight = float(text_weight)
-        self.batch_size, self.device = int(batch_size), str(device)
-        self.normalise = bool(normalise)
+        self.mode, self.visual = o.mode, o.visual
+        self.steps, self.seed = o.steps, o.seed
+        self.text_weight = float(o.text_weight)
+        self.batch_size, self.device = o.batch_size, o.device
+        self.normalise = o.normalise
         self._hash = checkpoint_hash(self.folder)
         self._scheduler = _scheduler_config(self.folder)  # read once: queries come one per episode
 

@@ -80,9 +80,10 @@ class MiniLMEncoder(Encoder):
     dim = 384
     MEMO_SIZE = 100_000  # texts whose embedding is kept in memory
 
-    def __init__(self, device: str = "cpu", batch_size: int = 64):
-        self.device = str(device)
-        self.batch_size = int(batch_size)
+    def __init__(self, options: MiniLMOptions | None = None):
+        o = options if options is not None else MiniLMOptions()
+        self.device = o.device
+        self.batch_size = o.batch_size
         self._memo: dict[str, np.ndarray] = {}
 
     def encode(self, items: list[tuple[np.ndarray | None, str]]) -> np.ndarray:

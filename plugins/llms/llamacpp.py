@@ -69,55 +69,31 @@ CONTEXT_ERRORS = ("exceed_context_size", "exceeds the available context size")
 
 
 class LlamaCppLLM(LLM):
-    def __init__(
-        self,
-        model: str | None = None,
-        binary: str | None = None,
-        threads: int = 2,
-        ctx_size: int = 8192,
-        chat_template: str = "model",
-        temperature: float = 0.0,
-        top_p: float = 1.0,
-        top_k: int = 40,
-        repeat_penalty: float = 1.0,
-        repeat_last_n: int = 64,
-        max_tokens: int = 256,
-        seed: int = 0,
-        stop: list[str] | None = None,
-        grammar: str = "actions",
-        stop_at_action_list: bool = False,
-        cache_dir: str | None = None,
-        find_links: str | None = None,
-        startup_timeout_s: float = 120.0,
-        timeout_s: float = 900.0,
-        server_args: list[str] | None = None,
-        repack: bool = False,
-        speculative: str = "ngram-mod",
-        draft_max: int = 16,
-    ):
-        if not model:
+    def __init__(self, options: LlamaCppOptions):
+        o = options
+        if not o.model:
             raise ConfigError("llm 'llamacpp' needs llm.model: a catalogued model name or a .gguf path")
-        self.model = str(model)
-        self.binary = binary
-        self.threads, self.ctx_size = int(threads), int(ctx_size)
-        self.chat_template = chat_template
-        self.sampling = {"temperature": float(temperature), "top_p": float(top_p), "top_k": int(top_k),
-                         "repeat_penalty": float(repeat_penalty), "repeat_last_n": int(repeat_last_n),
-                         "seed": int(seed)}
+        self.model = str(o.model)
+        self.binary = o.binary
+        self.threads, self.ctx_size = o.threads, o.ctx_size
+        self.chat_template = o.chat_template
+        self.sampling = {"temperature": float(o.temperature), "top_p": float(o.top_p), "top_k": o.top_k,
+                         "repeat_penalty": float(o.repeat_penalty), "repeat_last_n": o.repeat_last_n,
+                         "seed": o.seed}
         self._request = dict(self.sampling)
-        if int(repeat_last_n) == -1:  # the server's field takes no -1 (its CLI does): the whole context
+        if o.repeat_last_n == -1:  # the server's field takes no -1 (its CLI does): the whole context
             self._request["repeat_last_n"] = self.ctx_size
-        if stop:
-            self._request["stop"] = [str(s) for s in stop]
-            self.sampling["stop"] = [str(s) for s in stop]
-        self.max_tokens = int(max_tokens)
-        self.grammar = check_grammar(str(grammar))
-        self.stop_at_action_list = bool(stop_at_action_list)
-        self.cache_dir, self.find_links = cache_dir, find_links
-        self.startup_timeout_s, self.timeout_s = float(startup_timeout_s), float(timeout_s)
-        self.server_args = [str(a) for a in (server_args or [])] + ([] if repack else ["--no-repack"])
-        if speculative != "none":  # drafts are verified by the model: the replies do not change
-            self.server_args += ["--spec-type", speculative, "--spec-draft-n-max", str(int(draft_max))]
+        if o.stop:
+            self._request["stop"] = [str(s) for s in o.stop]
+            self.sampling["stop"] = [str(s) for s in o.stop]
+        self.max_tokens = o.max_tokens
+        self.grammar = check_grammar(o.grammar)
+        self.stop_at_action_list = o.stop_at_action_list
+        self.cache_dir, self.find_links = o.cache_dir, o.find_links
+        self.startup_timeout_s, self.timeout_s = float(o.startup_timeout_s), float(o.timeout_s)
+        self.server_args = [str(a) for a in (o.server_args or [])] + ([] if o.repack else ["--no-repack"])
+        if o.speculative != "none":  # drafts are verified by the model: the replies do not change
+            self.server_args += ["--spec-type", o.speculative, "--spec-draft-n-max", str(o.draft_max)]
         self._server = None
         self._client = None
         self.last_call: dict[str, Any] = {}  # token counts and timings of the last reply
@@ -139,17 +115,18 @@ class LlamaCppLLM(LLM):
             return
         from xicm.plugins.llms.llamacpp_server import llama_server_binary, shared_server
         from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
+        from xicm.plugins.llms.openai_compatible_options import OpenAICompatibleOptions
 
         path = self.model_path()
         self._server = shared_server(llama_server_binary(self.binary), path, self.threads, self.ctx_size,
                                      self.server_args, self.startup_timeout_s)
         chat = self.chat_template == "model"
-        self._client = OpenAICompatibleLLM(
+        self._client = OpenAICompatibleLLM(OpenAICompatibleOptions(
             model=path.name, base_url=self._server.base_url + "/v1", mode="chat" if chat else "completion",
             completion_format="plain" if chat else self.chat_template, temperature=None, top_p=None,
             max_tokens=self.max_tokens, extra={**self._request, "cache_prompt": True}, timeout_s=self.timeout_s,
             retries=0, grammar=self.grammar, server="llamacpp", stop_at_action_list=self.stop_at_action_list,
-        )
+        ))
 
     def stop(self) -> None:
         """Stop the server (LLMs of this process that share it start another at their next call)."""

@@ -1,6 +1,6 @@
 """The model of `transformers_local`: which files the ``model`` option names, and loading them
 offline (tokenizer, weights, dtype, device, the chat-template choice). Options:
-`xicm.plugins.llms.transformers_local_options`."""
+`xicm.plugins.llms.transformers_local_options`; the LLM holds one `LoadedModel`."""
 
 from __future__ import annotations
 
@@ -48,14 +48,27 @@ def resolve_model(model: str, cache_dir: str | None) -> tuple[str, str | None, s
     return model, None, f"hf:{model}"
 
 
-class LocalModelMixin:
-    """Loading for `TransformersLocalLLM`: reads the options it stored (model_option, cache_dir,
-    source, gguf_file, dtype_name, device_option, torch_threads, trust_remote_code,
-    chat_template) and sets _model, _tokenizer, _template_used, _cache_supported, load_seconds."""
+class LoadedModel:
+    """The model of `transformers_local`: the files the ``model`` option names (resolved when
+    built: a missing model is a ConfigError before any episode) and, once `load()` ran, the
+    tokenizer, the weights, the rendering the chat_template option chose (`template_used`) and
+    whether the fast path can reuse its key/value cache (`cache_supported`)."""
+
+    def __init__(self, model: str, cache_dir: str | None, dtype: str, device: str, torch_threads: int | None,
+                 trust_remote_code: bool, chat_template: str):
+        self.option, self.cache_dir = model, cache_dir
+        self.dtype_name, self.device_option, self.torch_threads = dtype, device, torch_threads
+        self.trust_remote_code, self.chat_template = trust_remote_code, chat_template
+        self.source, self.gguf_file, self.label = resolve_model(model, cache_dir)
+        self.model = None
+        self.tokenizer = None
+        self.template_used: str | None = None  # 'tokenizer', 'custom', 'plain' or 'raw' once loaded
+        self.cache_supported = False
+        self.load_seconds: float | None = None
 
     def load(self) -> None:
         """Load tokenizer and weights (converting the embedded model first if needed)."""
-        if self._model is not None:
+        if self.model is not None:
             return
         os.environ["HF_HUB_OFFLINE"] = "1"
         import torch
@@ -65,7 +78,7 @@ class LocalModelMixin:
             torch.set_num_threads(self.torch_threads)
         t0 = time.perf_counter()
         source = self.source
-        if self.model_option == model_files.EMBEDDED:
+        if self.option == model_files.EMBEDDED:
             source = str(model_files.embedded_model_dir(self.cache_dir))
         dtype = getattr(torch, self.dtype_name, None) if self.dtype_name != "auto" else "auto"
         if dtype is None:
@@ -82,10 +95,10 @@ class LocalModelMixin:
             raise ConfigError(f"llm model {source} could not be loaded offline: {exc}") from exc
         model.to(self.device)
         model.eval()
-        self._tokenizer = tokenizer
-        self._model = model
-        self._template_used = self._choose_template(tokenizer)
-        self._cache_supported = PrefixCache.supported(model)
+        self.tokenizer = tokenizer
+        self.model = model
+        self.template_used = self._choose_template(tokenizer)
+        self.cache_supported = PrefixCache.supported(model)
         self.load_seconds = time.perf_counter() - t0
 
     @property
@@ -113,16 +126,25 @@ class LocalModelMixin:
         return "custom"
 
     @property
-    def template_used(self) -> str | None:
-        """Which rendering complete() uses: 'tokenizer', 'custom', 'plain' or 'raw' (None before load)."""
-        return self._template_used
-
-    @property
     def context_length(self) -> int | None:
         self.load()
-        config = self._model.config
+        config = self.model.config
         for attr in ("max_position_embeddings", "n_positions", "max_sequence_length"):
             value = getattr(config, attr, None)
             if isinstance(value, int) and value > 0:
                 return value
         return None
+
+    def decode(self, new_ids: list[int]) -> str:
+        return self.tokenizer.decode(new_ids, skip_special_tokens=True)
+
+    def vocab_size(self) -> int:
+        return int(self.model.get_output_embeddings().weight.shape[0])
+
+    def eos_ids(self) -> list[int]:
+        eos = self.model.generation_config.eos_token_id
+        return [] if eos is None else [eos] if isinstance(eos, int) else list(eos)
+
+    def pad_id(self) -> int:
+        pad = self.tokenizer.pad_token_id
+        return self.tokenizer.eos_token_id if pad is None else pad

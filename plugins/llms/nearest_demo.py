@@ -78,9 +78,10 @@ class NearestDemoLLM(LLM):
     # rounds them to 1 cm), so the message-keyed response cache must never answer for it.
     deterministic = False
 
-    def __init__(self, demo_rank: int = 0, grammar: str = "actions", stop_at_action_list: bool = False):
-        self.demo_rank = int(demo_rank)
-        self.grammar = check_grammar(str(grammar))
+    def __init__(self, options: NearestDemoOptions | None = None):
+        o = options if options is not None else NearestDemoOptions()
+        self.demo_rank = o.demo_rank
+        self.grammar = check_grammar(o.grammar)
 
     def complete(self, prompt: Prompt) -> str:
         if self.demo_rank >= len(prompt.demos):

@@ -70,7 +70,6 @@ from xicm.core.types import Prompt
 from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX, check_grammar
 from xicm.plugins.llms.stopping import first_list_only
 from xicm.plugins.llms.openai_compatible_options import SERVERS, OpenAICompatibleOptions
-from xicm.plugins.llms.options import to_plain
 from xicm.plugins.llms.rendering import render_plain, render_raw
 
 MODES = {"chat": "/chat/completions", "completion": "/completions"}
@@ -79,23 +78,9 @@ MODES = {"chat": "/chat/completions", "completion": "/completions"}
 class OpenAICompatibleLLM(LLM):
     """Client of an OpenAI-compatible HTTP endpoint (the `openai` package's client)."""
 
-    def __init__(
-        self,
-        model: str | None = None,
-        base_url: str = "http://127.0.0.1:8000/v1",
-        api_key_env: str | None = None,
-        mode: str = "chat",
-        completion_format: str = "plain",
-        temperature: float | None = 0.1,
-        top_p: float | None = 0.001,
-        max_tokens: int | None = 256,
-        extra: dict[str, Any] | None = None,
-        timeout_s: float = 120.0,
-        retries: int = 3,
-        grammar: str = "actions",
-        server: str = "vllm",
-        stop_at_action_list: bool = False,
-    ):
+    def __init__(self, options: OpenAICompatibleOptions):
+        o = options
+        model, base_url, mode, completion_format, server = o.model, o.base_url, o.mode, o.completion_format, o.server
         if not model:
             raise ConfigError("llm 'openai_compatible' needs a model name (llm.model), e.g. the server's model id")
         if mode not in MODES:
@@ -104,9 +89,9 @@ class OpenAICompatibleLLM(LLM):
             raise ConfigError(f"llm.completion_format '{completion_format}' is unknown; available: plain, raw")
         if server not in SERVERS:
             raise ConfigError(f"llm.server '{server}' is unknown; available: {', '.join(SERVERS)}")
-        self.grammar = check_grammar(str(grammar))
+        self.grammar = check_grammar(o.grammar)
         self.server = server
-        self.stop_at_action_list = bool(stop_at_action_list)
+        self.stop_at_action_list = o.stop_at_action_list
         if not str(base_url).startswith(("http://", "https://")):
             raise ConfigError(f"llm.base_url '{base_url}' is not an http(s) URL")
         try:
@@ -117,15 +102,15 @@ class OpenAICompatibleLLM(LLM):
         self.base_url = str(base_url).rstrip("/")
         self.mode = mode
         self.completion_format = completion_format
-        self.temperature = temperature
-        self.top_p = top_p
-        self.max_tokens = max_tokens
-        self.extra = to_plain(dict(extra or {}))
-        self.timeout_s = float(timeout_s)
-        self.retries = max(0, int(retries))
+        self.temperature = o.temperature
+        self.top_p = o.top_p
+        self.max_tokens = o.max_tokens
+        self.extra = dict(o.extra or {})
+        self.timeout_s = float(o.timeout_s)
+        self.retries = o.retries
         self.attempts_made = 0  # HTTP requests sent by the last call, retries included
         self.last_reply = None  # the last parsed reply (usage; a server's own fields in model_extra)
-        api_key = os.environ.get(api_key_env, "") if api_key_env else ""
+        api_key = os.environ.get(o.api_key_env, "") if o.api_key_env else ""
         # No key (fine for local servers): no Authorization header at all, as openai allows
         # only when a request omits the header explicitly.
         self._no_auth = {} if api_key else {"Authorization": openai.Omit()}

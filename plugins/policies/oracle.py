@@ -38,4 +38,4 @@ class OraclePolicyOptions:
 
 @hookimpl
 def register_policies(register):
-    register("oracle", lambda context: OraclePolicy(context.simulator), options=OraclePolicyOptions)
+    register("oracle", lambda options, context: OraclePolicy(context.simulator), options=OraclePolicyOptions)

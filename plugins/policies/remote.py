@@ -10,7 +10,7 @@ whether it observes at all (a served oracle does not: nothing is rendered betwee
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import dataclasses
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Dict, List, Optional
@@ -146,43 +146,24 @@ class RemotePolicyOptions:
     gripper_closed: float = GRIPPER_CLOSED  # ... and for a closed one
 
 
-def create_remote_policy(
-    context,
-    host: str = "127.0.0.1",
-    port: int | None = 8000,
-    timeout_s: float = 30.0,
-    api_key_env: str | None = None,
-    control_mode: str = "auto",
-    chunk_steps_to_execute: int | None = None,
-    images: Mapping[str, str] | None = None,
-    image_size: int | None = None,
-    state_key: str | None = "observation/state",
-    state: Sequence[str] = DEFAULT_STATE,
-    prompt_key: str | None = "prompt",
-    gripper_open: float = GRIPPER_OPEN,
-    gripper_closed: float = GRIPPER_CLOSED,
-) -> RemotePolicy:
+def create_remote_policy(options: RemotePolicyOptions, context) -> RemotePolicy:
     from xicm.serving.client import PolicyClient, ServerError, server_uri
     from xicm.serving.keys import KeyNotSet, key_from_env
 
-    options = dict(
-        host=host, port=port, timeout_s=timeout_s, api_key_env=api_key_env, control_mode=control_mode,
-        chunk_steps_to_execute=chunk_steps_to_execute, images=dict(images or DEFAULT_IMAGES),
-        image_size=image_size, state_key=state_key, state=list(state),
-        prompt_key=prompt_key, gripper_open=gripper_open, gripper_closed=gripper_closed,
-    )
+    settings = {**dataclasses.asdict(options), "images": dict(options.images or DEFAULT_IMAGES)}  # what RemotePolicy reads
+    api_key_env = options.api_key_env
     try:
         api_key = key_from_env(api_key_env, "policy.api_key_env")  # held by the client only, never in options
     except KeyNotSet as exc:
         raise ConfigError(str(exc)) from None
-    client = PolicyClient(server_uri(options["host"], options["port"]), options["timeout_s"], api_key)
+    client = PolicyClient(server_uri(options.host, options.port), options.timeout_s, api_key)
     try:
         client.connect()
     except ServerError as exc:
         raise ConfigError(_refusal(exc, api_key_env) if exc.status in (401, 403) else f"policy.host/port: {exc}") from exc
     spec = context.simulator.control_spec()
     try:
-        policy = RemotePolicy(client, options, spec)
+        policy = RemotePolicy(client, settings, spec)
     except ConfigError:
         client.close()
         raise

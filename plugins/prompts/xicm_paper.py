@@ -58,10 +58,11 @@ class XicmPaperPromptOptions:
 
 
 class XicmPaperPromptBuilder(PromptBuilder):
-    def __init__(self, system_prompt: str | None = None, objects: str = "paper", all_labels: bool = False):
-        self.system_prompt = SYSTEM_PROMPT if system_prompt is None else str(system_prompt)
-        self.objects = objects
-        self.all_labels = bool(all_labels) and objects == "paper"
+    def __init__(self, options: XicmPaperPromptOptions | None = None):
+        o = options if options is not None else XicmPaperPromptOptions()
+        self.system_prompt = SYSTEM_PROMPT if o.system_prompt is None else o.system_prompt
+        self.objects = o.objects
+        self.all_labels = o.all_labels and o.objects == "paper"
 
     def scene_parts(self, task: str) -> list[str]:
         return part_names(task) if self.all_labels else []

@@ -58,8 +58,9 @@ class XicmPromptOptions:
 
 
 class XicmPromptBuilder(PromptBuilder):
-    def __init__(self, system_prompt: str | None = None):
-        self.system_prompt = SYSTEM_PROMPT if system_prompt is None else str(system_prompt)
+    def __init__(self, options: XicmPromptOptions | None = None):
+        o = options if options is not None else XicmPromptOptions()
+        self.system_prompt = SYSTEM_PROMPT if o.system_prompt is None else o.system_prompt
 
     def build(self, demos: list[Demo], query: Query, workspace: Box) -> Prompt:
         lines = [demo_line(d, workspace) for d in demos]

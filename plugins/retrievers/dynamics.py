@@ -14,12 +14,12 @@ from xicm.plugins.retrievers.similarity import SimilarityOptions, SimilarityRetr
 
 
 class DynamicsRetriever(SimilarityRetriever):
-    def __init__(self, encoder=None, **options):
+    def __init__(self, options: SimilarityOptions | None = None, encoder=None):
         if encoder is not None and not getattr(encoder, "uses_images", False):
             raise ConfigError(
                 f"the dynamics retriever needs an encoder of the scene's dynamics (encoder=dynamics), got {type(encoder).__name__}"
             )
-        super().__init__(encoder=encoder, **options)
+        super().__init__(options, encoder=encoder)
 
 
 @hookimpl

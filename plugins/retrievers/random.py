@@ -37,8 +37,8 @@ class RandomOptions:
 
 
 class RandomRetriever(Retriever):
-    def __init__(self, encoder=None, exclude_same_task: bool = False):
-        self.exclude_same_task = bool(exclude_same_task)  # the encoder is not needed
+    def __init__(self, options: RandomOptions | None = None, encoder=None):
+        self.exclude_same_task = (options or RandomOptions()).exclude_same_task  # the encoder is not needed
 
     def select(self, query: Query, pool: list[Demo], k: int, rng: np.random.Generator) -> list[tuple[Demo, float]]:
         demos = candidates(query, pool, self.exclude_same_task)

@@ -77,19 +77,14 @@ class SimilarityOptions:
 
 
 class SimilarityRetriever(Retriever):
-    def __init__(
-        self,
-        encoder: Encoder | None = None,
-        cache_dir: str | None = None,
-        exclude_same_task: bool = False,
-        score: str = "cosine",
-    ):
+    def __init__(self, options: SimilarityOptions | None = None, encoder: Encoder | None = None):
         if encoder is None:
             raise ConfigError("the similarity retriever needs an encoder; set `encoder=` (e.g. encoder=minilm)")
+        o = options if options is not None else SimilarityOptions()
         self.encoder = encoder
-        self.cache_dir = Path(cache_dir).expanduser() if cache_dir else default_cache_dir()
-        self.exclude_same_task = bool(exclude_same_task)
-        self.score = str(score)
+        self.cache_dir = Path(o.cache_dir).expanduser() if o.cache_dir else default_cache_dir()
+        self.exclude_same_task = o.exclude_same_task
+        self.score = o.score
         self._rows: dict[str, int] = {}
         self._features = np.zeros((0, 0), np.float32)
         self.cache_path: Path | None = None

@@ -29,22 +29,12 @@ class XicmPolicyOptions:
     keyframes: str = field(default="ours", metadata=one_of(*KEYFRAME_RULES))
 
 
-def create_xicm_policy(
-    k: int,
-    max_llm_calls: int | None,
-    pool: str,
-    pool_tasks: list[str],
-    context: PolicyContext,
-    rerank: bool = False,
-    partial_replies: bool = False,
-    parse_fallback: bool = False,
-    keyframes: str = "ours",
-):
+def create_xicm_policy(options: XicmPolicyOptions, context: PolicyContext):
     from . import parts
     from .policy import XICMPolicy
 
-    cfg, registry = context.cfg, context.registry
-    demos = parts.load_demos(pool, list(pool_tasks), keyframes)
+    o, cfg, registry = options, context.cfg, context.registry
+    demos = parts.load_demos(o.pool, list(o.pool_tasks), o.keyframes)
     retriever = parts.build_retriever(cfg, registry, parts.build_encoder(cfg, registry))
     retriever.prepare(demos)
     return XICMPolicy(
@@ -54,12 +44,12 @@ def create_xicm_policy(
         llm=parts.build_llm(cfg, registry),
         pool=demos,
         workspace=context.simulator.workspace,
-        k=int(k),
-        max_llm_calls=max_llm_calls,
-        pool_path=str(pool),
-        rerank=bool(rerank),
-        partial_replies=bool(partial_replies),
-        parse_fallback=bool(parse_fallback),
+        k=o.k,
+        max_llm_calls=o.max_llm_calls,
+        pool_path=o.pool,
+        rerank=o.rerank,
+        partial_replies=o.partial_replies,
+        parse_fallback=o.parse_fallback,
     )
 
 

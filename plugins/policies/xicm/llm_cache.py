@@ -104,14 +104,14 @@ class CachedLLM(LLM):
     """An LLM that answers from the cache when it can and stores every new reply.
 
     ``enabled=None`` (default) caches only when the wrapped LLM says its decoding is
-    deterministic (attribute ``deterministic``, false when absent); True/False force it.
+    deterministic (``LLM.deterministic``); True/False force it.
     Errors of the wrapped LLM propagate and are never cached.
     """
 
     def __init__(self, llm: LLM, path: str | os.PathLike, enabled: bool | None = None):
         self.llm = llm
         self.cache = ResponseCache(path)
-        self.enabled = bool(getattr(llm, "deterministic", False)) if enabled is None else bool(enabled)
+        self.enabled = bool(llm.deterministic) if enabled is None else bool(enabled)
         self.hits = 0
         self.misses = 0
 
@@ -136,4 +136,4 @@ class CachedLLM(LLM):
 
     @property
     def deterministic(self) -> bool:
-        return bool(getattr(self.llm, "deterministic", False))
+        return bool(self.llm.deterministic)

@@ -82,7 +82,7 @@ def build_llm(cfg: DictConfig, registry: Registry):
     check_ready = getattr(llm, "check_ready", None)  # plugins written before it existed lack it
     if check_ready is not None:
         check_ready()
-    if cfg.llm_cache.enabled and getattr(llm, "deterministic", False):
+    if cfg.llm_cache.enabled and llm.deterministic:
         from xicm.plugins.policies.xicm.llm_cache import CachedLLM
 
         llm = CachedLLM(llm, cfg.llm_cache.path, enabled=True)

@@ -6,20 +6,20 @@ factory and by a task's module, which is loaded on the task's first use (tasks.L
 
 from xicm.core.hookspecs import hookimpl
 
-from .options import SapienOptions, check_rates
+from .options import REPLACED, SapienOptions, check_rates
 from .tasks import builtin_tasks
 
 
-def create_simulator(**options):
-    """Build a SapienSimulator (imports sapien); options include tasks= (see Registry.create_simulator)."""
+def create_simulator(options: SapienOptions, *, tasks):
+    """Build a SapienSimulator (imports sapien) with the tasks Registry.create_simulator hands over."""
     from .simulator import SapienSimulator
 
-    return SapienSimulator(**options)
+    return SapienSimulator(options, tasks=tasks)
 
 
 @hookimpl
 def register_simulators(register):
-    register("sapien", create_simulator, options=SapienOptions, check=check_rates)
+    register("sapien", create_simulator, options=SapienOptions, check=check_rates, replaced=REPLACED)
 
 
 @hookimpl

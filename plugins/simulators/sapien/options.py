@@ -61,6 +61,10 @@ def _cameras(v: list) -> bool:
 
 @dataclass
 class SapienOptions:
+    """Every option of simulator `sapien`, with its default: the one declaration (sapien.yaml
+    repeats them for the command line; tests/test_config_schema.py keeps the two equal)."""
+
+    #: camera resolution: an int (square), [height, width], or camera -> either (cameras it leaves out get 128)
     image_size: Any = field(  # an int, [height, width] or camera -> either: OmegaConf has no Union, so the rule checks the type
         default=DEFAULT_IMAGE_SIZE,
         metadata=rule(
@@ -69,30 +73,31 @@ class SapienOptions:
             f"camera names ({', '.join(CAMERA_NAMES)}) to either",
         ),
     )
+    #: the cameras rendered
     cameras: List[str] = field(
         default_factory=lambda: list(CAMERA_NAMES),
         metadata=rule(_cameras, f"a non-empty list of distinct names from {', '.join(CAMERA_NAMES)}"),
     )
-    physics_hz: float = field(default=200.0, metadata=above(0))
+    physics_hz: float = field(default=200.0, metadata=above(0))  # physics steps per second of simulated time
     #: frames per second: key moves are followed, recorded and watched by tasks per frame (RLBench: 20 Hz)
     frame_hz: float = field(default=20.0, metadata=above(0))
     #: control steps per second of step(action); frame_hz must be a multiple of it
     control_hz: float = field(default=10.0, metadata=above(0))
+    #: the action space of step(action): ee_delta, ee_pose, joint_pos, joint_delta (control_modes.py)
     control_mode: str = field(default="ee_delta", metadata=one_of(*CONTROL_MODES))
-    sample_variations: bool = True
     #: read depth / segmentation pictures too (the oracle and grounding_dino detectors need depth,
     #: the oracle segmentation); false skips reading them: CameraFrame.depth / .segmentation are None
     depth: bool = True
     segmentation: bool = True
-    render: bool = True
+    render: bool = True  # false: a physics-only simulator (observe() is then unavailable)
     lin_speed: float = field(default=0.35, metadata=above(0))  # m/s of the gripper along a straight line
     joint_speed: float = field(default=1.3, metadata=above(0))  # rad/s
     #: attach: RLBench's rigid grasp of a graspable object (grasp.py); friction: finger friction only
     grasp: str = field(default="attach", metadata=one_of(*GRASP_MODES))
     #: per_frame: success read after every control frame, the move ends when it holds (RLBench)
     success_check: str = field(default="per_action", metadata=one_of(*SUCCESS_CHECKS))
-    scenes: str = field(default="ours", metadata=one_of(*SCENE_RANGES))
-    robot: str = field(default="ours", metadata=one_of(*ROBOTS))
+    scenes: str = field(default="ours", metadata=one_of(*SCENE_RANGES))  # SCENE_RANGES above
+    robot: str = field(default="ours", metadata=one_of(*ROBOTS))  # ROBOTS above
     #: success_check: per_frame: a move that met success still runs its gripper command, then success
     #: is read once, as X-ICM's RLBench does (false: the command is skipped and success stands)
     gripper_after_success: bool = False
@@ -114,6 +119,13 @@ def frames_per_step(frame_hz: float, control_hz: float) -> int:
     return int(round(ratio))
 
 
+#: options that became other keys: the registry refuses them with a sentence naming the new key
+REPLACED = {"sample_variations": "benchmark.variations (zero | sampled)"}
+
+
 def check_rates(options: dict) -> None:
-    """The simulator group's rule between options (core.build.check_run calls it before building)."""
-    frames_per_step(options.get("frame_hz", 20.0), options.get("control_hz", 10.0))
+    """The simulator group's rule between options (core.checks calls it before building)."""
+    from xicm.core.plugins import options_object
+
+    values = options_object(SapienOptions, {k: v for k, v in options.items() if k != "name"})
+    frames_per_step(values.frame_hz, values.control_hz)

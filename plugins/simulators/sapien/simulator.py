@@ -22,11 +22,10 @@ from xicm.core.types import (
 )
 
 from . import control_modes, spec
-from .cameras import CAMERA_NAMES
 from .controller import Controller, MotionLimits, Unreachable
 from .grasp import GraspAttacher
 from .objects import ObjectSet
-from .options import GRASP_MODES, SCENE_RANGES, SUCCESS_CHECKS, WORKSPACE_CHECKS, frames_per_step, sizes_per_camera
+from .options import SapienOptions, frames_per_step, sizes_per_camera
 from .robot import ARM_JOINTS
 from .scene import RLBENCH_WORKSPACE_Z, TABLE_TOP_Z, WORKSPACE, World
 from .task_base import Task
@@ -35,105 +34,48 @@ from .task_base import Task
 class SapienSimulator(Simulator):
     """AGNOSTOS-style tabletop scenes with a Franka Panda, rendered headless through Vulkan.
 
-    Options:
-        image_size: camera resolution: an int (square), [height, width], or camera -> either
-            (cameras it leaves out get 128).
-        cameras: names of the cameras to render (front, left_shoulder, right_shoulder, overhead, wrist).
-        physics_hz: physics steps per second of simulated time.
-        frame_hz: frames per second: key moves are followed, recorded and watched by the task
-            per frame (RLBench uses 20 Hz).
-        control_hz: control steps per second of step(action) (frame_hz must be a multiple).
-        control_mode: the action space of step(action): ee_delta, ee_pose, joint_pos, joint_delta
-            (layouts in control_modes.py).
-        sample_variations: pick a random variation per episode for tasks that have several
-            (False: always variation 0, what the unseen tasks are evaluated on).
-        depth, segmentation: read those pictures too (False: CameraFrame.depth / .segmentation are None).
-        render: False builds a physics-only simulator (observe() is then unavailable).
-        lin_speed, joint_speed: TCP (m/s) and joint (rad/s) speed limits of a move.
-        grasp: 'attach' (RLBench: a graspable object the closed fingers hold is fixed to the hand
-            until the gripper opens, grasp.py) or 'friction' (held by finger friction alone).
-        success_check: 'per_action' (the task's success is read after each key action or step) or
-            'per_frame' (after every control frame, as RLBench does during a move: the move ends
-            and the episode succeeds the moment it holds; a task's ordered conditions latch).
-        scenes, max_scene_draws: 'ours' or 'rlbench' position/yaw ranges (options.py).
-        robot: 'ours' or 'rlbench': where the Panda stands and its start joints (scene.py ROBOT_PLACEMENTS).
-        gripper_after_success: with per_frame, a key action whose move met success still runs its
-            gripper command, then success is read once (X-ICM's RLBench); false skips the command.
-        workspace_check: 'grid' (a target off the grid box or below the table top is `unreachable`)
-            or 'rlbench' (RLBench's z rule, table top to +1 m, refuses with `out_of_workspace`;
-            x/y stay the grid box's: options.py WORKSPACE_CHECKS).
-        tasks: the tasks it can load, name -> Task class (or a stand-in such as tasks.LazyTask):
-            those registered for simulator "sapien", handed over by Registry.create_simulator.
+    Built from its options (options.py SapienOptions: each option's meaning and default, checked
+    by the registry before this runs) and the tasks it can load, name -> Task class (or a stand-in
+    such as tasks.LazyTask): those registered for simulator "sapien", handed over by
+    Registry.create_simulator. `sample_variations` (the Simulator interface's) is set by the run
+    from benchmark.variations.
     """
 
     workspace = WORKSPACE
 
-    def __init__(
-        self,
-        image_size: int | list[int] = 128,
-        cameras=CAMERA_NAMES,
-        physics_hz: float = 200.0,
-        frame_hz: float = 20.0,
-        control_hz: float = 10.0,
-        control_mode: str = "ee_delta",
-        sample_variations: bool = True,
-        render: bool = True,
-        depth: bool = True,
-        segmentation: bool = True,
-        lin_speed: float = 0.35,
-        joint_speed: float = 1.3,
-        grasp: str = "attach",
-        success_check: str = "per_action",
-        scenes: str = "ours",
-        max_scene_draws: int = 20,
-        robot: str = "ours",
-        gripper_after_success: bool = False,
-        workspace_check: str = "grid",
-        *,
-        tasks: Mapping[str, Callable[[World, ObjectSet], Task]],
-    ):
-        cameras = tuple(str(c) for c in cameras)
+    def __init__(self, options: SapienOptions, *, tasks: Mapping[str, Callable[[World, ObjectSet], Task]]):
+        o = options
+        cameras = tuple(str(c) for c in o.cameras)
         self.world = World(
-            physics_hz=float(physics_hz),
-            image_size=sizes_per_camera(image_size, cameras),
+            physics_hz=float(o.physics_hz),
+            image_size=sizes_per_camera(o.image_size, cameras),
             cameras=cameras,
-            render=bool(render),
-            depth=bool(depth),
-            segmentation=bool(segmentation),
-            robot=str(robot),
+            render=o.render,
+            depth=o.depth,
+            segmentation=o.segmentation,
+            robot=o.robot,
         )
         self.robot = self.world.robot
         self.objects = ObjectSet(self.world.scene)
         self.controller = Controller(
             self.world.scene,
             self.robot,
-            physics_hz,
-            frame_hz,
-            MotionLimits(lin_speed=lin_speed, joint_speed=joint_speed),
+            o.physics_hz,
+            o.frame_hz,
+            MotionLimits(lin_speed=o.lin_speed, joint_speed=o.joint_speed),
         )
-        self.frames_per_step = frames_per_step(frame_hz, control_hz)
-        self.control_hz = float(control_hz)
-        self.control_mode = control_modes.check_mode(str(control_mode))
-        if grasp not in GRASP_MODES:
-            raise ValueError(f"simulator option grasp is '{grasp}'; allowed: {', '.join(GRASP_MODES)}")
-        self.grasp_mode = grasp
-        if success_check not in SUCCESS_CHECKS:
-            why = f"simulator option success_check is '{success_check}'; allowed: {', '.join(SUCCESS_CHECKS)}"
-            raise ValueError(why)
-        self.per_frame_success = success_check == "per_frame"
-        self.gripper_after_success = bool(gripper_after_success)
-        if workspace_check not in WORKSPACE_CHECKS:
-            why = f"simulator option workspace_check is '{workspace_check}'; allowed: {', '.join(WORKSPACE_CHECKS)}"
-            raise ValueError(why)
-        self.workspace_check = workspace_check
-        if grasp == "attach":
+        self.frames_per_step = frames_per_step(o.frame_hz, o.control_hz)
+        self.control_hz = float(o.control_hz)
+        self.control_mode = o.control_mode
+        self.grasp_mode = o.grasp
+        self.per_frame_success = o.success_check == "per_frame"
+        self.gripper_after_success = o.gripper_after_success
+        self.workspace_check = o.workspace_check
+        if o.grasp == "attach":
             self.world.grasp = self.controller.grasp = GraspAttacher(self.world.scene, self.robot)
-        if scenes not in SCENE_RANGES:
-            raise ValueError(f"simulator option scenes is '{scenes}'; allowed: {', '.join(SCENE_RANGES)}")
-        self.scenes = scenes
-        self.max_scene_draws = int(max_scene_draws)
+        self.scenes = o.scenes
+        self.max_scene_draws = o.max_scene_draws
         self.scene_draw = 0  # which draw of the episode's scene is set up (scenes: rlbench)
-        self.sample_variations = bool(sample_variations)
         self.tasks = dict(tasks)
         self.task = None
         self.task_name: str | None = None

@@ -33,10 +33,13 @@ class KinematicOptions:
     render: bool = True
 
 
-def create_simulator(**options):
+def create_simulator(options: KinematicOptions, *, tasks):
+    """The registry hands a plugin with a schema one instance of it (docs/plugins.md)."""
+    from dataclasses import asdict
+
     from .simulator import KinematicSimulator
 
-    return KinematicSimulator(**options)
+    return KinematicSimulator(**asdict(options), tasks=tasks)
 
 
 @hookimpl
