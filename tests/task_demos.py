@@ -4,6 +4,7 @@ of it, in the test's simulator (`sim` fixture, conftest.py)."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import pytest
 
@@ -54,3 +55,26 @@ def hold_at_release(sim) -> KeyAction:
             return action
         go(sim, action)
     pytest.fail("the demonstrator never let go")
+
+
+PAPER_SIMULATOR = Path(__file__).resolve().parents[1] / "conf" / "simulator" / "sapien_paper.yaml"
+
+
+def paper_simulator(**changes):
+    """A fresh physics-only SAPIEN simulator with the paper settings (conf/simulator/sapien_paper.yaml:
+    RLBench's scenes, robot and success check), `changes` applied on top."""
+    from omegaconf import OmegaConf
+
+    from xicm.core.plugins import get_registry
+
+    options = {k: v for k, v in OmegaConf.to_container(OmegaConf.load(PAPER_SIMULATOR)).items() if k != "defaults"}
+    options.update({"name": "sapien", "render": False, **changes})
+    return get_registry().create_simulator(options)
+
+
+@pytest.fixture
+def paper_sim():
+    """paper_simulator() for one test (import it into the test module to use it)."""
+    simulator = paper_simulator()
+    yield simulator
+    simulator.close()

@@ -8,7 +8,7 @@ still held up over its zone, the ends swapped).
 
 import numpy as np
 import pytest
-from task_demos import go, moved, run_demo
+from task_demos import go, moved, paper_sim, run_demo  # noqa: F401 (paper_sim: a fixture)
 
 TASK = "straighten_rope"
 
@@ -101,3 +101,25 @@ def test_straighten_rope_starts_bent_with_both_ends_outside_their_zones(physics_
         head, tail = (np.asarray(e.entity.pose.p) for e in (task.head, task.tail))
         assert np.linalg.norm(head - tail) < 0.30  # a curve: shorter than the 32 cm rope
         assert abs(head[2] - tail[2]) < 1e-3  # lying flat on the table
+
+
+def _layout(sim, seed: int) -> np.ndarray:
+    """The distances between head, tail and the two zone centres (on the table) of a scene."""
+    sim.reset_state(TASK, seed, 0)
+    task = sim.task
+    points = [np.asarray(e.entity.pose.p[:2]) for e in (task.head, task.tail)]
+    points += [np.asarray(z.pose.p[:2]) for z in task.zones]
+    return np.array([np.linalg.norm(a - b) for i, a in enumerate(points) for b in points[i + 1:]])
+
+
+def test_straighten_rope_under_rlbench_scenes_keeps_one_rope_and_zone_layout(paper_sim, physics_sim):
+    """RLBench's rope and zones are fixed by its scene (only the base is placed); ours are drawn."""
+    first = _layout(paper_sim, 0)
+    yaws = set()
+    for seed in (1, 2):
+        assert np.allclose(_layout(paper_sim, seed), first, atol=0.005)
+        yaws.add(round(paper_sim.task.axis, 2))
+    assert len(yaws) == 2  # placed and turned anew
+    assert not np.allclose(_layout(physics_sim, 1), _layout(physics_sim, 2), atol=0.01)
+    run_demo(paper_sim)
+    assert paper_sim.is_success()

@@ -8,7 +8,7 @@ early or changing one of its constants) and check that the success test says no.
 
 import numpy as np
 import pytest
-from task_demos import go, moved, run_demo
+from task_demos import go, moved, paper_sim, paper_simulator, run_demo  # noqa: F401 (paper_sim: a fixture)
 
 from xicm.plugins.simulators.sapien.tasks.unseen import lamp_off, turn_oven_on, unplug_charger
 
@@ -62,7 +62,52 @@ def test_lamp_light_shows_on_the_bulb(physics_sim):
     assert np.max(task.bulb_look.emission[:3]) > 0.5
 
 
+@pytest.mark.parametrize("name", ["lamp_off", "lamp_on"])
+def test_lamp_under_rlbench_scenes_counts_the_button_held_in_and_never_switches_back(name):
+    """simulator.scenes: rlbench: RLBench's JointCondition (the button in by more than 3 mm now,
+    not latched) and a bulb that never switches back; read after each key action here."""
+    sim = paper_simulator(success_check="per_action")
+    try:
+        sim.reset_state(name, 7, 0)
+        task = sim.task
+        lit = task.lit
+        above, press = task.demonstration()  # it ends pressing
+        go(sim, above)
+        go(sim, press)
+        assert task.depth() > lamp_off.PRESSED and sim.is_success() and task.lit != lit
+        go(sim, above)
+        assert task.depth() < lamp_off.PRESSED and not sim.is_success()  # the spring lifted it: not latched
+        assert task.lit != lit
+        go(sim, press)  # ours would switch the light back and fail
+        assert task.presses == 2 and task.lit != lit and sim.is_success()
+    finally:
+        sim.close()
+
+
+def test_lamp_under_the_paper_settings_succeeds_at_the_press_with_its_arm_straight_back(paper_sim, physics_sim):
+    for seed in range(3):
+        paper_sim.reset_state("lamp_on", seed, 0)
+        assert paper_sim.task.arm_yaw == 0.0
+    physics_sim.reset_state("lamp_on", 0, 0)
+    assert physics_sim.task.arm_yaw != 0.0  # ours draws it
+    task = paper_sim.task
+    above, press = task.demonstration()
+    go(paper_sim, above)
+    outcome = paper_sim.execute(press)
+    assert outcome.success and task.lit  # the move stopped pressed in (per_frame)
+
+
 # ------------------------------------------------------------------ turn_oven_on
+def test_oven_knobs_start_at_one_angle_under_rlbench_scenes_only(paper_sim, physics_sim):
+    for seed in range(2):
+        paper_sim.reset_state("turn_oven_on", seed, 0)
+        assert np.allclose(paper_sim.task.start_q, 0.0) and np.allclose(paper_sim.task.oven.get_qpos(), 0.0, atol=1e-3)
+        physics_sim.reset_state("turn_oven_on", seed, 0)
+        assert np.all(np.abs(physics_sim.task.start_q) > 1e-3)  # ours: each drawn in [-30, 30] degrees
+    run_demo(paper_sim)
+    assert paper_sim.is_success()
+
+
 def test_turning_the_oven_knob_only_a_little_is_not_a_success(physics_sim, monkeypatch):
     monkeypatch.setattr(turn_oven_on, "TURN", np.deg2rad(45.0))
     physics_sim.reset_state("turn_oven_on", 1, 0)

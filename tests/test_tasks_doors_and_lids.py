@@ -9,7 +9,8 @@ true state) to a half-done outcome and checks that the success test says no.
 import sys
 
 import numpy as np
-from task_demos import go, moved, run_demo
+import pytest
+from task_demos import go, moved, paper_sim, run_demo  # noqa: F401 (paper_sim: a fixture)
 
 from xicm.plugins.simulators.sapien.task_base import lid_push_point
 from xicm.plugins.simulators.sapien.tasks.unseen import open_grill, take_lid_off_saucepan
@@ -143,3 +144,21 @@ def test_saucepan_lid_raised_only_a_little_is_not_a_success(physics_sim, monkeyp
     task = physics_sim.task
     assert task.lid.per_scene_id in task.grasped() and not task.lid_lifted()
     assert not physics_sim.is_success()
+
+
+@pytest.mark.parametrize("which", ["default", "paper"])
+def test_close_fridge_door_opened_further_counts_only_under_rlbench_scenes(physics_sim, paper_sim, which):
+    """RLBench's JointCondition is |change| > 30 degrees either way (simulator.scenes: rlbench);
+    ours is a close-only test."""
+    sim = paper_sim if which == "paper" else physics_sim
+    sim.reset_state("close_fridge", 0, 0)  # the door opens at 78 degrees (limit 120)
+    task = sim.task
+    theta0 = task.angle()
+    task.fridge.set_qpos(np.array([theta0 + np.deg2rad(35.0)]))
+    task.fridge.set_qvel(np.zeros(1))
+    for _ in range(5):
+        sim.controller.step_frame()
+    assert task.angle() - theta0 > np.deg2rad(31.0)
+    assert task.evaluate() == (which == "paper")
+    task.fridge.set_qpos(np.array([theta0 + np.deg2rad(20.0)]))  # less than 30 degrees: neither
+    assert not task.evaluate()

@@ -6,7 +6,11 @@ Each test drives the task's own scripted demonstrator and changes it into the mi
 
 import numpy as np
 import pytest
-from task_demos import go, hold_at_release, moved, run_demo, shifted
+import sapien
+from task_demos import go, hold_at_release, moved, paper_sim, run_demo, shifted  # noqa: F401 (paper_sim: a fixture)
+
+from xicm.plugins.simulators.sapien.scene import TABLE_TOP_Z
+from xicm.plugins.simulators.sapien.tasks.unseen import basketball_in_hoop, put_rubbish_in_bin
 
 # task, seed, whether the object is in its place (checked while still held and after letting go)
 PLACED = [
@@ -183,3 +187,41 @@ def test_basketball_held_over_the_ring_is_not_a_success(physics_sim):
     assert not physics_sim.is_success()
     go(physics_sim, moved(release, (0.0, 0.0, 0.05), gripper_open=False))  # lifted away without going through
     assert not physics_sim.is_success()
+
+
+def test_put_rubbish_in_bin_under_rlbench_scenes_swaps_the_rubbish_within_one_layout(paper_sim, physics_sim):
+    """RLBench keeps its layout and swaps the rubbish with one of the tomatoes (3 options)."""
+    home = np.linalg.norm(np.subtract(put_rubbish_in_bin.LAYOUT_BIN, put_rubbish_in_bin.LAYOUT_SPOTS[0]))
+    side = np.linalg.norm(np.subtract(put_rubbish_in_bin.LAYOUT_BIN, put_rubbish_in_bin.LAYOUT_SPOTS[1]))
+    in_the_middle = set()
+    for seed in (0, 2, 16):  # the draws that swap it with tomato 2, keep it home, swap it with tomato 1
+        paper_sim.reset_state("put_rubbish_in_bin", seed, 0)
+        task = paper_sim.task
+        bin_xy = np.asarray(task.bin.get_root_pose().p[:2])
+        objects = [task.rubbish, *task.tomatoes]
+        to_bin = [np.linalg.norm(np.asarray(o.pose.p[:2]) - bin_xy) for o in objects]
+        assert np.allclose(sorted(to_bin), [home, side, side], atol=0.005)
+        in_the_middle.add(int(np.argmin(to_bin)))
+    assert in_the_middle == {0, 1, 2}  # the rubbish home, or swapped with tomato 1 or tomato 2
+    physics_sim.reset_state("put_rubbish_in_bin", 0, 0)
+    task = physics_sim.task
+    bin_xy = np.asarray(task.bin.get_root_pose().p[:2])
+    ours = sorted(np.linalg.norm(np.asarray(o.pose.p[:2]) - bin_xy) for o in [task.rubbish, *task.tomatoes])
+    assert not np.allclose(ours, [home, side, side], atol=0.005)  # ours places each on its own
+
+
+@pytest.mark.parametrize("which", ["default", "paper"])
+def test_basketball_set_down_under_the_ring_counts_only_in_rlbenchs_sensor(physics_sim, paper_sim, which):
+    """simulator.scenes: rlbench reads RLBench's sensor box (RoboVerse's export) under the ring;
+    ours needs the ball to pass down through the ring."""
+    sim = paper_sim if which == "paper" else physics_sim
+    sim.reset_state("basketball_in_hoop", 0, 0)
+    task = sim.task
+    frame = task.frame.to_transformation_matrix()
+    for shift, counts in ((0.14, False), (0.0, which == "paper")):  # beside the hoop, then under the ring
+        spot = task.frame.p + frame[:3, 1] * shift
+        task.ball.set_pose(sapien.Pose([spot[0], spot[1], TABLE_TOP_Z + 0.015 + basketball_in_hoop.BALL_R]))
+        for _ in range(20):
+            sim.controller.step_frame()
+        assert task.ball.pose.p[2] < TABLE_TOP_Z + 0.05  # resting, never above the ring
+        assert task.evaluate() == counts

@@ -10,7 +10,8 @@ from .spec import STEP_MODES
 GRASP_MODES = ("attach", "friction")
 SUCCESS_CHECKS = ("per_action", "per_frame")
 #: ours: each task's own ranges (every scene solvable by its demonstrator); rlbench: RLBench's
-#: ranges, each scene redrawn until the task's scripted solution solves it (SapienSimulator.reset_state)
+#: ranges, and its fixed layouts and success rules where a task names them (Task.rlbench_scenes),
+#: each scene redrawn until the task's scripted solution solves it (SapienSimulator.reset_state)
 SCENE_RANGES = ("ours", "rlbench")
 #: where the Panda stands and how it starts (scene.py ROBOT_PLACEMENTS): ours, or RLBench's as recorded
 ROBOTS = ("ours", "rlbench")

@@ -126,8 +126,8 @@ class SapienSimulator(Simulator):
         self.objects.clear()
         self.robot.reset()
         self.task = cls(self.world, self.objects)
+        self.task.ranges = self.scenes  # before load(): a task may build RLBench's objects under it
         self.task.load()
-        self.task.ranges = self.scenes
         rng = episode_rng(seed, task, episode, "scene" if draw == 0 else f"scene-draw-{draw}")
         self.task.initialise(rng, self.sample_variations)
         self.scene_draw = draw

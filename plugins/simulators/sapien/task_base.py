@@ -110,7 +110,21 @@ class Task(ABC):
     # --- helpers ---------------------------------------------------------------------------
     def span(self, ours: tuple[float, float], rlbench: tuple[float, float]) -> tuple[float, float]:
         """The (low, high) range in effect: this task's own, or RLBench's (simulator.scenes)."""
-        return rlbench if self.ranges == "rlbench" else ours
+        return rlbench if self.rlbench_scenes else ours
+
+    @property
+    def rlbench_scenes(self) -> bool:
+        """Whether RLBench's own layout and success rule apply where a task differs from it
+        (simulator.scenes: rlbench); under ours the task keeps its own."""
+        return self.ranges == "rlbench"
+
+    def joint_moved(self, start: float, now: float, threshold: float, direction: int) -> bool:
+        """Whether a joint moved by more than `threshold` from `start`: under RLBench's scenes
+        as its JointCondition, |now - start| either way; under ours only in `direction`
+        (+1: opening, -1: closing)."""
+        if self.rlbench_scenes:
+            return abs(now - start) > threshold
+        return direction * (now - start) > threshold
 
     def turn_base(self, rng: np.random.Generator, entities, pivot_xy) -> float:
         """Under RLBench's ranges, turn `entities` together by a yaw drawn from ±180 degrees (the
@@ -118,7 +132,7 @@ class Task(ABC):
         RLBench turns a task's base with all its objects; returns the yaw (radians, 0 under ours).
         Call it after every other draw of initialise(): under ours it draws nothing, so the
         task's scenes under ours stay what they were."""
-        if self.ranges != "rlbench":
+        if not self.rlbench_scenes:
             return 0.0
         yaw = float(np.deg2rad(rng.uniform(-180.0, 180.0)))
         turn = yaw_pose(pivot_xy[0], pivot_xy[1], 0.0, yaw) * sapien.Pose([-pivot_xy[0], -pivot_xy[1], 0.0])

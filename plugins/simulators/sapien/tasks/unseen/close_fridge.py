@@ -13,6 +13,9 @@ Randomisations:
 
 Success conditions:
     The top door has been closed by more than 30 degrees from its opening angle at the start.
+    Under simulator.scenes: rlbench, RLBench's JointCondition: the joint moved by more than that
+    from its start angle in either direction (|change|): opening it further counts too where the
+    hinge allows it.
 """
 
 from __future__ import annotations
@@ -111,7 +114,7 @@ class CloseFridge(Task):
         return float(self.fridge.get_qpos()[0])
 
     def evaluate(self) -> bool:
-        return self.start_angle - self.angle() > SUCCESS_ANGLE
+        return self.joint_moved(self.start_angle, self.angle(), SUCCESS_ANGLE, -1)
 
     def _push_pose(self, theta: float, offset: float, turn: bool | None = None):
         """TCP pose (world) `offset` off the top door's outer face at PUSH_R when it is open by `theta`."""

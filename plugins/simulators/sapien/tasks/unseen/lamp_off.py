@@ -11,12 +11,17 @@ Randomisations:
       default is [-180, 180]; beyond about 125 degrees the stem and shade stand between the
       robot and the button, and the demonstrator's press failed in 6 of 9 such seeds;
       simulator.scenes: rlbench draws [-180, 180] and redraws scenes the demonstrator fails);
-    - the direction of the lamp's arm: in [-30, 30] degrees from straight back.
+    - the direction of the lamp's arm: in [-30, 30] degrees from straight back (simulator.scenes:
+      rlbench: straight back, as RLBench's lamp is one model).
 
 Success conditions:
     The button has been pressed in by more than 3 mm, which switched the light off (every
     press toggles the light; a press is counted again only after the button came back up),
     and the light is off.
+    Under simulator.scenes: rlbench, RLBench's JointCondition: the button is in by more than 3 mm
+    now (not latched; the spring lifts it back); the first press switches the light and nothing
+    switches it back. The demonstrator then ends holding the button in (with success read only
+    after key actions, success_check: per_action, a lifted button is a failure).
 """
 
 from __future__ import annotations
@@ -92,8 +97,8 @@ class LampTask(Task):
         x = rng.uniform(0.15, 0.35)
         y = rng.uniform(-0.20, 0.20)
         yaw = np.deg2rad(rng.uniform(*self.span(ours=(-90.0, 90.0), rlbench=(-180.0, 180.0))))
-        arm_yaw = np.deg2rad(rng.uniform(-30.0, 30.0))
-        self.lamp = self._build(arm_yaw, yaw_pose(x, y, TABLE_TOP_Z, yaw))
+        self.arm_yaw = 0.0 if self.rlbench_scenes else float(np.deg2rad(rng.uniform(-30.0, 30.0)))
+        self.lamp = self._build(self.arm_yaw, yaw_pose(x, y, TABLE_TOP_Z, yaw))
         self.lamp.set_qpos(np.zeros(1))
         self.lamp.set_qvel(np.zeros(1))
         self.lit = self.start_lit
@@ -116,13 +121,16 @@ class LampTask(Task):
         if not self.held and depth > PRESSED:
             self.held = True
             self.presses += 1
-            self.lit = not self.lit
-            self._show_light()
+            if not (self.rlbench_scenes and self.presses > 1):  # RLBench's bulb never switches back
+                self.lit = not self.lit
+                self._show_light()
         elif self.held and depth < RELEASED:
             self.held = False
 
     def evaluate(self) -> bool:
         self.on_frame()
+        if self.rlbench_scenes:
+            return self.depth() > PRESSED
         return self.presses > 0 and self.lit != self.start_lit
 
     def demonstration(self):
@@ -135,7 +143,8 @@ class LampTask(Task):
         press = snap_to_grid(top + [0.0, 0.0, FINGERTIP - PRESS_DEPTH])
         yield self.key(press + [0.0, 0.0, 0.08], quat, gripper_open=False)
         yield self.key(press, quat, gripper_open=False)
-        yield self.key(press + [0.0, 0.0, 0.08], quat, gripper_open=False)
+        if not self.rlbench_scenes:  # RLBench's rule holds only while pressed: the demo ends there
+            yield self.key(press + [0.0, 0.0, 0.08], quat, gripper_open=False)
 
 
 class LampOff(LampTask):

@@ -8,12 +8,14 @@ Task description:
 
 Randomisations:
     - lamp centre x in [0.15, 0.35] m, y in [-0.20, 0.20] m, yaw in [-90, 90] degrees (as lamp_off);
-    - the direction of the lamp's arm: in [-30, 30] degrees from straight back.
+    - the direction of the lamp's arm: in [-30, 30] degrees from straight back (simulator.scenes:
+      rlbench: straight back, as lamp_off).
 
 Success conditions:
     The button has been pressed in by more than 3 mm, which switched the light on (every press
     toggles the light; a press is counted again only after the button came back up), and the
-    light is on.
+    light is on. Under simulator.scenes: rlbench, as lamp_off: the button in by more than 3 mm now,
+    no toggle.
 """
 
 from __future__ import annotations

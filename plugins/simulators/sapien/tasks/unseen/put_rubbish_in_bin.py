@@ -10,6 +10,11 @@ Randomisations:
       0.10 m apart, each with a random yaw;
     - bin centre x in [0.32, 0.42] m, y in [-0.18, 0.18] m, random yaw, at least 0.19 m from
       each of the other objects.
+    - simulator.scenes: rlbench, as RLBench: one fixed layout (RLBench's own lives in its binary
+      scene file, so the arrangement is ours: tomato 1, rubbish, tomato 2 in a row 12 cm apart,
+      the bin 20 cm behind the rubbish), whose centre is drawn in x [0.14, 0.24] m, y [-0.10,
+      0.10] m and which turns as a whole by [-180, 180] degrees; the rubbish stays in its spot
+      or swaps places with one of the tomatoes (3 options, as RLBench's init_episode).
 
 Success conditions:
     The rubbish is inside the bin (its centre within the bin's inner radius of the bin's axis
@@ -32,6 +37,11 @@ SEGMENTS = 16
 GRIP_DEPTH = 0.012  # the TCP this far below the rubbish's top when holding it
 SPAWN = ((0.02, 0.22), (-0.26, 0.26), 0.10)
 SPAWN_BIN = ((0.32, 0.42), (-0.18, 0.18), 0.19)
+#: simulator.scenes: rlbench: the fixed layout in its own frame (x away from the robot at yaw 0):
+#: the home spots of rubbish, tomato 1, tomato 2, then the bin; and the box of its centre
+LAYOUT_SPOTS = ((-0.07, 0.0), (-0.07, 0.12), (-0.07, -0.12))
+LAYOUT_BIN = (0.13, 0.0)
+LAYOUT_BOX = ((0.14, 0.24), (-0.10, 0.10))
 
 
 
@@ -95,6 +105,20 @@ class PutRubbishInBin(Task):
             self.tomatoes.append(self.objects.actor(t, f"tomato {i + 1}"))
 
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
+        spots, yaws, bin_xy, bin_yaw = (self._rlbench_layout if self.rlbench_scenes else self._own_layout)(rng)
+        self.bin.set_root_pose(yaw_pose(*bin_xy, TABLE_TOP_Z, bin_yaw))
+        heights = [RUBBISH_HALF[2], TOMATO_R * 0.85, TOMATO_R * 0.85]
+        for actor, spot, h, yaw in zip([self.rubbish, *self.tomatoes], spots, heights, yaws):
+            actor.set_pose(yaw_pose(*spot, TABLE_TOP_Z + h + 0.001, yaw))
+            body = actor.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
+            body.set_linear_velocity([0, 0, 0])
+            body.set_angular_velocity([0, 0, 0])
+        self.variation = 0
+        self.episode_instruction = self.instruction
+
+    @staticmethod
+    def _own_layout(rng: np.random.Generator):
+        """Rubbish, tomatoes and bin each at their own random spot and yaw."""
         (xs, ys, gap), (bxs, bys, bgap) = SPAWN, SPAWN_BIN
         spots: list[np.ndarray] = []
         while len(spots) < 3:
@@ -105,15 +129,19 @@ class PutRubbishInBin(Task):
             bin_xy = np.array([rng.uniform(*bxs), rng.uniform(*bys)])
             if all(np.linalg.norm(bin_xy - q) >= bgap for q in spots):
                 break
-        self.bin.set_root_pose(yaw_pose(*bin_xy, TABLE_TOP_Z, rng.uniform(-np.pi, np.pi)))
-        heights = [RUBBISH_HALF[2], TOMATO_R * 0.85, TOMATO_R * 0.85]
-        for actor, spot, h in zip([self.rubbish, *self.tomatoes], spots, heights):
-            actor.set_pose(yaw_pose(*spot, TABLE_TOP_Z + h + 0.001, rng.uniform(-np.pi, np.pi)))
-            body = actor.find_component_by_type(sapien.physx.PhysxRigidDynamicComponent)
-            body.set_linear_velocity([0, 0, 0])
-            body.set_angular_velocity([0, 0, 0])
-        self.variation = 0
-        self.episode_instruction = self.instruction
+        bin_yaw = rng.uniform(-np.pi, np.pi)
+        return spots, [rng.uniform(-np.pi, np.pi) for _ in spots], bin_xy, bin_yaw
+
+    @staticmethod
+    def _rlbench_layout(rng: np.random.Generator):
+        """RLBench's way: the fixed layout placed and turned whole, the rubbish swapped with
+        tomato 2 (0), left home (1) or swapped with tomato 1 (2)."""
+        centre = np.array([rng.uniform(*LAYOUT_BOX[0]), rng.uniform(*LAYOUT_BOX[1])])
+        yaw = rng.uniform(-np.pi, np.pi)
+        turn = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
+        home = [centre + turn @ np.asarray(spot) for spot in LAYOUT_SPOTS]
+        order = {0: (2, 1, 0), 1: (0, 1, 2), 2: (1, 0, 2)}[int(rng.integers(3))]
+        return [home[i] for i in order], [yaw] * 3, centre + turn @ np.asarray(LAYOUT_BIN), yaw
 
     def in_bin(self, actor: sapien.Entity) -> bool:
         p = np.asarray(actor.pose.p, dtype=float)

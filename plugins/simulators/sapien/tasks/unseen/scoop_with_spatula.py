@@ -30,6 +30,8 @@ Randomisations:
       the cube stands against its middle, cube centre x in [0.28, 0.36] m, y in [-0.10, 0.10] m;
     - which side (left or right) the spatula lies on: handle centre x in [-0.02, 0.06] m,
       |y| in [0.18, 0.24] m, yaw in [-20, 20] degrees.
+    - simulator.scenes: rlbench: the cube is 2 cm (edges rounded 2.5 mm), as RoboVerse's export of
+      RLBench's task makes its Cuboid; ours is 4 cm (the demonstrator's push scales with it).
 
 Success conditions:
     The cube lies on the lifted spatula: its bottom is more than 5 cm above the table, its
@@ -55,7 +57,10 @@ HANDLE_HALF = (0.06, 0.008, 0.008)
 HANDLE_Z = 0.035  # handle axis above the blade's underside: 0.785 m, a grid cell centre, on the table
 GRIP = np.array([-BLADE_HALF[0] - NECK_DX - HANDLE_HALF[0], 0.0, HANDLE_Z])  # handle centre
 TIP = np.array([BLADE_HALF[0], 0.0, EDGE_R])
-CUBE, CUBE_R = 0.04, 0.005  # cube side and edge radius
+#: cube side (ours; RLBench's, as RoboVerse exported its Cuboid, under simulator.scenes: rlbench)
+CUBE_SIDE = {"ours": 0.04, "rlbench": 0.02}
+CUBE_EDGE = 1 / 8  # edge radius per unit side (5 mm on ours)
+PUSH_GAP = 0.2  # the pushed blade's tip stops this far (per unit side) before the backstop: 8 mm on ours
 STOP_HALF = (0.01, 0.08, 0.0125)  # backstop bar: depth, length, height (halves)
 STOP_GAP = 0.001  # cube face to backstop face at the start
 LIFT = 0.05  # the cube's bottom must be this far above the table
@@ -129,7 +134,8 @@ class ScoopWithSpatula(Task):
         self.spatula = self.objects.actor(b, "spatula")
 
         b = scene.create_actor_builder()
-        rounded_cube(b, CUBE, CUBE_R, (0.85, 0.12, 0.1), physical(0.2), 400.0)
+        self.cube_side = CUBE_SIDE["rlbench" if self.rlbench_scenes else "ours"]
+        rounded_cube(b, self.cube_side, CUBE_EDGE * self.cube_side, (0.85, 0.12, 0.1), physical(0.2), 400.0)
         self.cube = self.objects.actor(b, "cube")
 
         b = scene.create_actor_builder()
@@ -140,8 +146,8 @@ class ScoopWithSpatula(Task):
         yaw = np.deg2rad(rng.uniform(*self.span(ours=(-90.0, 90.0), rlbench=(-180.0, 180.0))))
         cx, cy = rng.uniform(0.28, 0.36), rng.uniform(-0.10, 0.10)
         self.push_dir = np.array([np.cos(yaw), np.sin(yaw), 0.0])  # from the cube into the stop
-        self.cube.set_pose(yaw_pose(cx, cy, TABLE_TOP_Z + CUBE / 2, yaw))
-        face = np.array([cx, cy, TABLE_TOP_Z]) + (CUBE / 2 + STOP_GAP) * self.push_dir
+        self.cube.set_pose(yaw_pose(cx, cy, TABLE_TOP_Z + self.cube_side / 2, yaw))
+        face = np.array([cx, cy, TABLE_TOP_Z]) + (self.cube_side / 2 + STOP_GAP) * self.push_dir
         self.stop.set_pose(yaw_pose(face[0], face[1], TABLE_TOP_Z, yaw))
         side = 1.0 if rng.random() < 0.5 else -1.0
         grip = np.array([rng.uniform(-0.02, 0.06), side * rng.uniform(0.18, 0.24)])
@@ -169,7 +175,7 @@ class ScoopWithSpatula(Task):
         return bool(over and self.touching(self.cube, self.spatula))
 
     def evaluate(self) -> bool:
-        lifted = float(self.cube.pose.p[2]) - CUBE / 2 > TABLE_TOP_Z + LIFT
+        lifted = float(self.cube.pose.p[2]) - self.cube_side / 2 > TABLE_TOP_Z + LIFT
         return bool(lifted and self.cube_on_blade() and self.spatula.per_scene_id in self.grasped())
 
     # --- scripted solution -----------------------------------------------------------------
@@ -196,10 +202,10 @@ class ScoopWithSpatula(Task):
         def tcp_for(tip_at: np.ndarray) -> np.ndarray:
             return snap_to_grid([tip_at[0] - tip[0], tip_at[1] - tip[1], z])
 
-        start = tcp_for(cube - (CUBE / 2 + 0.03) * d)
+        start = tcp_for(cube - (self.cube_side / 2 + 0.03) * d)
         yield self.key(start + [0, 0, 0.04], q, False)
         yield self.key(start, q, False)
-        wall = cube + (CUBE / 2 + STOP_GAP) * d
-        stop = tcp_for(wall - 0.008 * d)
+        wall = cube + (self.cube_side / 2 + STOP_GAP) * d
+        stop = tcp_for(wall - PUSH_GAP * self.cube_side * d)  # the tip stops short of the stop, under the cube
         yield self.key(stop, q, False)
         yield self.key(stop + [0, 0, 0.10], q, False)

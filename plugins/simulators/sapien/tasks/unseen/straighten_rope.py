@@ -32,6 +32,11 @@ Randomisations:
     - the zones' axis: the chord direction +-30 degrees, their midpoint within +-4 cm (x and y)
       of the chord midpoint; all resampled until both ends start outside their zones (by more
       than 1 cm) and the zone centres and the rope's ends lie in x [0.02, 0.42] m, |y| <= 0.3 m.
+    - simulator.scenes: rlbench, as RLBench (whose rope and zones are fixed by its scene file and
+      only the base is placed): one rope shape, an S-curve with halves bent 145 degrees, no
+      noise, and the zones' axis 20 degrees off the chord through its midpoint (both ours: the
+      scene file is not readable here); the chord midpoint and yaw are drawn as above, so rope
+      and zones move and turn together.
 
 Success conditions:
     The head block's centre is within 3 cm (horizontally) of the head zone's centre AND the tail
@@ -58,6 +63,10 @@ ZONE_D = 0.28  # distance between the zone centres
 ZONE_R = 0.03
 LIFT = 0.02
 SWING = np.deg2rad(30.0)
+#: simulator.scenes: rlbench: the one rope shape (S-curve, each half bent this much) and the zones'
+#: axis against the chord (ends then start 5 cm from their zones)
+RLBENCH_BEND = np.deg2rad(145.0)
+RLBENCH_ZONE_TURN = np.deg2rad(20.0)
 STEP = np.deg2rad(5.0)
 ROPE_GROUP = 1 << 20  # shared collision-group bit: the rope's parts do not collide with each other
 YAW_AXIS = [np.cos(np.pi / 4), 0.0, -np.sin(np.pi / 4), 0.0]  # joint x axis -> local z
@@ -186,6 +195,12 @@ class StraightenRope(Task):
         return bends + np.deg2rad(rng.uniform(-4.0, 4.0, n))
 
     @staticmethod
+    def _rlbench_shape() -> np.ndarray:
+        """Yaw angles of the joints of the one rope shape of simulator.scenes: rlbench."""
+        n, half = N_LINKS + 1, (N_LINKS + 1) // 2
+        return np.concatenate([np.full(half, RLBENCH_BEND / half), np.full(n - half, -RLBENCH_BEND / (n - half))])
+
+    @staticmethod
     def _tail_in_head_frame(bends: np.ndarray) -> np.ndarray:
         """Tail centre (x, y) with the head at the origin facing +x."""
         p, a = np.array([END_HALF[0], 0.0]), 0.0
@@ -197,7 +212,8 @@ class StraightenRope(Task):
     def initialise(self, rng: np.random.Generator, sample_variation: bool) -> None:
         self.variation = 0
         self.episode_instruction = self.instruction
-        bends = self._shape(rng)
+        fixed = self.rlbench_scenes
+        bends = self._rlbench_shape() if fixed else self._shape(rng)
         tail = self._tail_in_head_frame(bends)
         chord_yaw = float(np.arctan2(tail[1], tail[0]))
         for _ in range(200):
@@ -207,8 +223,8 @@ class StraightenRope(Task):
             rot = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
             head_xy = mid - rot @ (tail / 2)
             tail_xy = mid + rot @ (tail / 2)
-            axis = yaw + np.deg2rad(rng.uniform(-30.0, 30.0))
-            centre = mid + rng.uniform(-0.04, 0.04, 2)
+            axis = yaw + (RLBENCH_ZONE_TURN if fixed else np.deg2rad(rng.uniform(-30.0, 30.0)))
+            centre = mid if fixed else mid + rng.uniform(-0.04, 0.04, 2)
             half = ZONE_D / 2 * np.array([np.cos(axis), np.sin(axis)])
             targets = (centre - half, centre + half)
             inside = all(0.02 <= p[0] <= 0.42 and abs(p[1]) <= 0.3 for p in (*targets, head_xy, tail_xy))

@@ -13,6 +13,9 @@ Randomisations:
 
 Success conditions:
     The seat has been lowered by more than 1.7 rad from its angle at the start.
+    Under simulator.scenes: rlbench, RLBench's JointCondition: the joint moved by more than that
+    from its start angle in either direction (|change|): opening it further counts too where the
+    hinge allows it.
 """
 
 from __future__ import annotations
@@ -114,7 +117,7 @@ class ToiletSeatDown(Task):
         return float(self.toilet.get_qpos()[0])
 
     def evaluate(self) -> bool:
-        return self.start_angle - self.angle() > SUCCESS_ANGLE
+        return self.joint_moved(self.start_angle, self.angle(), SUCCESS_ANGLE, -1)
 
     def demonstration(self):
         root = self.toilet.get_root_pose()

@@ -9,7 +9,8 @@ Task description:
 
 Randomisations:
     - oven centre x in [0.50, 0.58] m, y in [-0.12, 0.12] m, yaw in [-45, 45] degrees;
-    - each knob's starting angle in [-30, 30] degrees.
+    - each knob's starting angle in [-30, 30] degrees (simulator.scenes: rlbench: both at 0, its
+      ridge upright, as RLBench's knobs start at the one angle of its scene file).
 
 Success conditions:
     The left knob has turned by more than 1.5 rad (either way) from its angle at the start
@@ -116,7 +117,8 @@ class TurnOvenOn(Task):
         x, y = rng.uniform(0.50, 0.58), rng.uniform(-0.12, 0.12)
         yaw = np.deg2rad(rng.uniform(-45.0, 45.0))
         self.oven.set_root_pose(yaw_pose(x, y, TABLE_TOP_Z, yaw))
-        self.start_q = np.deg2rad(rng.uniform(-30.0, 30.0, 2))
+        # RLBench's knobs start where its scene file has them (one fixed angle): ours draw it
+        self.start_q = np.zeros(2) if self.rlbench_scenes else np.deg2rad(rng.uniform(-30.0, 30.0, 2))
         self.oven.set_qpos(self.start_q.copy())
         self.oven.set_qvel(np.zeros(2))
         self.variation = 0
