@@ -162,10 +162,11 @@ def _walk(pool: WorkerPool, tasks, demos_per_task, seed, out_path, max_attempts_
 
 
 def collector_config(cfg) -> dict:
-    """The part of a run's config a collection worker builds from (picklable, resolved)."""
+    """The part of a run's config a collection worker builds from (picklable, resolved): the
+    simulator and detector groups, and the benchmark's (its `variations` sets the scenes)."""
     from omegaconf import OmegaConf
 
-    return {group: OmegaConf.to_container(cfg[group], resolve=True) for group in ("simulator", "detector")}
+    return {group: OmegaConf.to_container(cfg[group], resolve=True) for group in ("simulator", "detector", "benchmark")}
 
 
 def build_collector(cfg) -> tuple[Simulator, Detector]:
