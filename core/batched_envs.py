@@ -6,8 +6,8 @@ its own policy instance (built here, with the slot's simulator proxy: core/sim_p
 its own simulator process, so every episode runs exactly as it would alone. The slots' `act`
 calls meet in `Lockstep`: once every slot with an episode in progress is waiting for actions,
 `Policy.act_batch` answers them all at once (a remote policy sends its requests together, so
-a server that batches sees them together). Results are handed to `run_episodes` in key order,
-as the Ray shards do, from a bounded window of keys run ahead.
+a server that batches sees them together). Results are handed to the run loop (core/run_loop.py) in key order,
+as the Ray shards do, from a bounded window of keys run ahead (core/keyed_window.py).
 """
 
 from __future__ import annotations
@@ -17,11 +17,11 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
+from xicm.core.build import Run
 from xicm.core.interfaces import Policy
+from xicm.core.keyed_window import Key, KeyedWindow
 from xicm.core.types import EpisodeResult
-
-Key = tuple[str, int, int]
-WINDOW_PER_ENV = 4  # keys run ahead of the one run_episodes asks for, per environment
+WINDOW_PER_ENV = 4  # keys run ahead of the one the run loop asks for, per environment
 
 
 class Lockstep:
@@ -95,50 +95,39 @@ class BatchedEnvs:
     """Callable (task, seed, episode) -> EpisodeResult over `n` environment processes."""
 
     def __init__(self, cfg: DictConfig, n: int, episode_options: dict[str, Any], order: list[Key]):
-        from xicm.core.build import build_policy
+        from xicm.core.build import build_run
         from xicm.core.plugins import get_registry
-        from xicm.core.sim_process import SimulatorProcess
+        from xicm.core.sim_process import simulator_processes
 
         registry = get_registry()
-        config = OmegaConf.to_container(cfg, resolve=True)
-        self.simulators: list[Any] = []
         self.options = episode_options
-        self.order = list(order)
-        self.position = {k: i for i, k in enumerate(self.order)}
-        self.next_key = 0  # index in order of the next key a slot takes
-        self.asked = 0  # index in order of the next key run_episodes will ask for
-        self.ready: dict[Key, EpisodeResult] = {}
-        self.cond = threading.Condition()
+        self.window = KeyedWindow(order, WINDOW_PER_ENV * n)
+        self.cond = threading.Condition()  # guards the window and error
         self.error: BaseException | None = None
+        simulators = simulator_processes(OmegaConf.to_container(cfg, resolve=True), n, order[0] if order else None)
+        self.runs: list[Run] = []
         try:
-            self.simulators = [SimulatorProcess(config) for _ in range(n)]
-            if self.order:  # the first render of a process is slow: all at once, before any episode
-                warm = [threading.Thread(target=sim.reset, args=self.order[0]) for sim in self.simulators]
-                for t in warm:
-                    t.start()
-                for t in warm:
-                    t.join()
-            policies = [build_policy(cfg, registry, sim) for sim in self.simulators]
-        except BaseException:
+            for sim in simulators:
+                self.runs.append(build_run(cfg, registry, simulator=sim))
+        except BaseException:  # build_run closed the simulator it failed with; close the others
+            for sim in simulators[len(self.runs) + 1:]:
+                sim.close()
             self.close()
             raise
-        self.lockstep = Lockstep(policies)
-        self.metadata = {"policy": str(cfg.policy.name), **policies[0].run_metadata(), "envs": n}
+        self.lockstep = Lockstep([run.policy for run in self.runs])
+        self.metadata = {**self.runs[0].metadata(), "envs": n}
         self.threads = [
-            threading.Thread(target=self._slot, args=(i, SlotPolicy(p, self.lockstep, i)), name=f"env-{i}", daemon=True)
-            for i, p in enumerate(policies)
+            threading.Thread(target=self._slot, args=(i, SlotPolicy(run.policy, self.lockstep, i)), name=f"env-{i}", daemon=True)
+            for i, run in enumerate(self.runs)
         ]
         for t in self.threads:
             t.start()
 
     def _take(self) -> Key | None:
         with self.cond:
-            while self.next_key < len(self.order) and self.next_key - self.asked >= WINDOW_PER_ENV * len(self.threads):
+            while self.window.queue and not self.window.has_room() and self.error is None:
                 self.cond.wait()
-            if self.next_key >= len(self.order) or self.error is not None:
-                return None
-            self.next_key += 1
-            return self.order[self.next_key - 1]
+            return None if self.error is not None else self.window.take()
 
     def _slot(self, slot: int, policy: SlotPolicy) -> None:
         from xicm.core.episode import run_episode
@@ -146,9 +135,9 @@ class BatchedEnvs:
         self.lockstep.join(slot)
         try:
             while (key := self._take()) is not None:
-                result = run_episode(self.simulators[slot], policy, *key, **self.options)
+                result = run_episode(self.runs[slot].simulator, policy, *key, **self.options)
                 with self.cond:
-                    self.ready[key] = result
+                    self.window.done(key, result)
                     self.cond.notify_all()
         except BaseException as exc:  # noqa: BLE001 - a broken worker ends the run, said by __call__
             with self.cond:
@@ -160,21 +149,19 @@ class BatchedEnvs:
     def __call__(self, task: str, seed: int, episode: int) -> EpisodeResult:
         key = (task, int(seed), int(episode))
         with self.cond:
-            self.asked = self.position[key]
-            self.cond.notify_all()
-            while key not in self.ready and self.error is None:
+            while not self.window.is_ready(key) and self.error is None:
                 self.cond.wait()
-            if key not in self.ready:
+            if not self.window.is_ready(key):
                 raise self.error  # type: ignore[misc]
-            self.asked += 1
-            self.cond.notify_all()
-            return self.ready.pop(key)
+            result = self.window.pop(key)
+            self.cond.notify_all()  # room in the window: a slot may take the next key
+            return result
 
     def close(self) -> None:
         with self.cond:
-            self.next_key = len(self.order)  # slots stop after their current episode
+            self.window.stop()  # slots stop after their current episode
             self.cond.notify_all()
         for t in getattr(self, "threads", []):
             t.join(timeout=60)
-        for sim in self.simulators:
-            sim.close()
+        for run in self.runs:
+            run.close()

@@ -8,22 +8,16 @@ from pathlib import Path
 
 from omegaconf import DictConfig
 
-from xicm.core import build
-from xicm.core.config_schema import XicmConfig
+from xicm.core import checks
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import get_registry
-from xicm.core.schema import check_config
 
 
 def run_collect(cfg: DictConfig) -> dict[str, tuple[int, int]]:
-    registry = get_registry()
-    check_config(cfg, XicmConfig)
     tasks = list(cfg.benchmark.pool_tasks)
     if not tasks:
         raise ConfigError(f"benchmark '{cfg.benchmark.name}' lists no pool_tasks to collect")
-    registry.check_options("simulator", build.group_options(cfg, "simulator"))
-    build.check_tasks(registry, tasks, cfg.simulator.name)
-    registry.check_options("detector", build.group_options(cfg, "detector"))
+    checks.run_checks(checks.COLLECT, cfg, get_registry(), tasks)
 
     from xicm.core.collect import build_collector, collect, collect_parallel, collector_config
 

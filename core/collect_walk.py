@@ -35,6 +35,22 @@ class Attempt:
     error: bool = False  # an exception, not a failed demonstration: tried again on resume
 
 
+class NoDemo(Exception):
+    """An episode that gives no demo (the reason is logged with the attempt)."""
+
+
+def attempt(task: str, episode: int, record: Callable[[], tuple[object, str]]) -> Attempt:
+    """One episode's outcome, ready to be committed: `record()` -> (demo, note); it never
+    raises. NoDemo is a failed demonstration; any other exception an error, tried again on resume."""
+    try:
+        demo, note = record()
+    except NoDemo as exc:
+        return Attempt(task, int(episode), None, str(exc), error=False)
+    except Exception as exc:  # noqa: BLE001 - a failed episode must not stop the run
+        return Attempt(task, int(episode), None, f"{type(exc).__name__}: {exc}", error=True)
+    return Attempt(task, int(episode), demo, note, error=False)  # type: ignore[arg-type]
+
+
 @dataclass
 class _TaskState:
     name: str

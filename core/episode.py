@@ -1,7 +1,8 @@
 """One evaluation episode of any policy: the single path every policy is evaluated through.
 
-    obs = simulator.reset(task, seed, episode); policy.reset(task, obs, rng)
-    until success or a budget is spent: carry out policy.act(obs) one by one, then observe
+    start_episode: obs = simulator.reset(task, seed, episode) with the episode's instruction;
+                   policy.reset(task, obs, rng)   (also what a served policy's episode starts with)
+    _act_until_done: until success or a budget is spent, carry out policy.act(obs) one by one, then observe
 
 A key action (KeyAction / JointAction) is `simulator.execute`d and counts against max_steps; a
 ControlStep (per-step policies: one, or a chunk of several) is `simulator.step`ped and counts
@@ -15,6 +16,8 @@ from __future__ import annotations
 
 import time
 import traceback
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from xicm.core.errors import EpisodeFailure, LLMError
@@ -22,7 +25,7 @@ from xicm.core.instructions import episode_instruction
 from xicm.core.interfaces import Policy, Simulator
 from xicm.core.seeding import episode_rng
 from xicm.core.transcripts import write_transcript
-from xicm.core.types import ControlStep, EpisodeResult
+from xicm.core.types import ControlStep, EpisodeResult, Observation
 from xicm.core.video import EpisodeVideo, VideoSettings
 
 
@@ -49,7 +52,7 @@ def run_episode(
     recorder = None if video is None else EpisodeVideo(video, task, seed, episode)
     try:
         budgets = Budgets(int(max_steps), max_control_steps, simulator, task)
-        _loop(simulator, policy, result, budgets, timings, recorder, instructions, scene_seed)
+        _act_until_done(simulator, policy, result, budgets, timings, recorder, instructions, scene_seed)
     except EpisodeFailure as failure:
         result.error_kind, result.error_message = failure.kind, failure.message
     except LLMError as exc:
@@ -116,7 +119,51 @@ class Budgets:
         return EpisodeFailure("max_steps", f"no success within {self.max_steps} key actions")
 
 
-def _loop(
+@dataclass
+class EpisodeStart:
+    scene: Observation  # the simulator's observation of the reset scene, with the episode's instruction
+    first: Observation  # the observation the policy was reset with (scene, or the one given)
+    reword: Callable[[Observation], Observation]  # gives any later observation the same instruction
+
+
+def start_episode(
+    simulator: Simulator,
+    policy: Policy,
+    task: str,
+    seed: int,
+    episode: int,
+    instructions: str = "agnostos",
+    *,
+    scene_seed: int | None = None,
+    observation: Observation | None = None,
+    timings: dict[str, float] | None = None,
+) -> EpisodeStart:
+    """The one episode start, wherever an episode runs (here, an envs=N slot, a Ray actor, a
+    served policy): reset the simulator to the scene (task, seed, episode) (or, with
+    benchmark.scene_seed, (task, scene_seed, episode)), give the observation the episode's
+    instruction (benchmark.instructions: core/instructions.py), then `policy.on_episode` and
+    `policy.reset` with the episode's own random stream (which keeps `seed`). `observation`:
+    the policy's first observation when it comes from elsewhere (a served policy's client); it
+    gets the same instruction. A failed reset raises EpisodeFailure("sim_error")."""
+    t0 = time.perf_counter()
+    try:
+        obs = simulator.reset(task, seed if scene_seed is None else int(scene_seed), episode)
+    except EpisodeFailure:
+        raise
+    except Exception as exc:
+        raise EpisodeFailure("sim_error", f"reset failed: {type(exc).__name__}: {exc}") from exc
+    finally:
+        if timings is not None:
+            timings["reset"] = timings.get("reset", 0.0) + time.perf_counter() - t0
+    reword = episode_instruction(simulator, obs, task, seed, episode, instructions)
+    scene = reword(obs)
+    first = scene if observation is None else reword(observation)
+    policy.on_episode(task, seed, episode)
+    policy.reset(task, first, episode_rng(seed, task, episode, stream="policy"))
+    return EpisodeStart(scene, first, reword)
+
+
+def _act_until_done(
     simulator: Simulator,
     policy: Policy,
     result: EpisodeResult,
@@ -133,19 +180,11 @@ def _loop(
         finally:
             timings[stage] = timings.get(stage, 0.0) + time.perf_counter() - t0
 
-    try:
-        scene = result.seed if scene_seed is None else int(scene_seed)  # the policy's stream keeps result.seed
-        obs = timed("reset", simulator.reset, result.task, scene, result.episode)
-    except EpisodeFailure:
-        raise
-    except Exception as exc:
-        raise EpisodeFailure("sim_error", f"reset failed: {type(exc).__name__}: {exc}") from exc
-    reword = episode_instruction(simulator, obs, result.task, result.seed, result.episode, instructions)
-    obs = reword(obs)
+    start = start_episode(simulator, policy, result.task, result.seed, result.episode, instructions,
+                          scene_seed=scene_seed, timings=timings)
+    obs, reword = start.first, start.reword
     if video is not None:
         video.start(simulator, obs)
-    policy.on_episode(result.task, result.seed, result.episode)
-    policy.reset(result.task, obs, episode_rng(result.seed, result.task, result.episode, stream="policy"))
     while budgets.left():
         actions = policy.act(obs)
         if not actions:

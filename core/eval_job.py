@@ -8,12 +8,12 @@ from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from xicm.core import build
+from xicm.core import build, checks
 from xicm.core.atomic import write_json_atomic
-from xicm.core.episode_loop import run_episodes
+from xicm.core.episode_runner import episode_runner
 from xicm.core.plugins import describe_plugins, get_registry
-from xicm.core.ray_shards import episode_runner, shard_settings
 from xicm.core.run_dir import ADDED_ON_RESUME, IDENTITY, RunDir, config_fingerprint, episode_keys, identity
+from xicm.core.run_loop import run_all_episodes
 from xicm.core.tracking import Tracker
 from xicm.core.video import VideoSettings
 from xicm.report import summary as report
@@ -24,8 +24,7 @@ log = logging.getLogger(__name__)
 def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     registry = get_registry()
     tasks = list(cfg.benchmark.tasks)
-    build.check_run(cfg, registry, tasks)
-    shards = shard_settings(cfg)
+    checks.check_run(cfg, registry, tasks)
     video = VideoSettings.from_config(cfg.video, out_dir)
     run_dir = RunDir(out_dir)
     added = run_dir.check_same_run(cfg)
@@ -42,7 +41,6 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     keys = episode_keys(tasks, cfg.seeds, cfg.episodes)
     transcripts_dir = out_dir if cfg.transcripts else None
     with episode_runner(
-        shards,
         cfg,
         out_dir,
         keys,
@@ -68,7 +66,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         )
         tracker = Tracker.for_job(cfg, out_dir, config={**OmegaConf.to_container(cfg, resolve=True), "plugins": plugins})
         try:
-            rows = run_episodes(
+            rows = run_all_episodes(
                 runner.run_one,
                 keys,
                 out_dir,

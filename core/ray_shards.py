@@ -2,8 +2,9 @@
 
 Each actor builds the simulator and the policy once (core.build.build_run, as a local run does) and runs the
 (task, seed, episode) keys the driver hands it. The driver stays the only writer of
-episodes.jsonl: `core.episode_loop.run_episodes` asks for the pending keys one by one, in key
-order, and this module answers from a window of keys handed out ahead to the actors. So the
+episodes.jsonl: `core.run_loop.run_all_episodes` asks for the pending keys one by one, in key
+order, and this module answers from a window of keys handed out ahead to the actors
+(core/keyed_window.py). Which runs use Ray is the dispatcher's choice (core/episode_runner.py). So the
 file is written exactly as by a local run (same order, never a duplicate), and a killed run
 resumes from the file as usual, losing at most the results still in the window. An actor lost
 mid-run (its process or its whole node gone) is dropped and its unfinished keys go to the
@@ -17,105 +18,21 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-from collections import deque
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
-from omegaconf import DictConfig, OmegaConf
-
-from xicm.core.errors import ConfigError, XicmError
-from xicm.core.run_dir import RunDir
+from xicm.core.config_schema import Shards
+from xicm.core.episode_runner import EpisodeWorker
+from xicm.core.errors import XicmError
+from xicm.core.keyed_window import Key, KeyedWindow
 from xicm.core.types import EpisodeResult
-
-Key = tuple[str, int, int]
-RunOne = Callable[[str, int, int], EpisodeResult]
 
 QUEUED_PER_WORKER = 2  # one running + one waiting, so an actor never idles on the driver's round trip
 WINDOW_PER_WORKER = 4  # keys handed out but not yet written, per worker: bounds what a kill loses
 LOCAL_OBJECT_STORE_BYTES = 200 * 1024**2  # only configs and episode rows travel through it
 
 
-@dataclass(frozen=True)
-class ShardSettings:
-    backend: str = "local"
-    workers: int = 1
-    address: str | None = None  # None: start a local Ray cluster for this run
-    cpus_per_worker: float = 1.0
-
-
-def shard_settings(cfg: DictConfig) -> ShardSettings:
-    """The run's `shards` keys (their types and ranges are the config schema's: xicm.core.config_schema)."""
-    node = cfg.get("shards")
-    if node is None:
-        return ShardSettings()
-    address = node.get("address")
-    settings = ShardSettings(
-        str(node.get("backend", "local")),
-        int(node.get("workers", 1)),
-        None if address in (None, "") else str(address),
-        float(node.get("cpus_per_worker", 1.0)),
-    )
-    if settings.backend == "ray":
-        try:
-            import ray  # noqa: F401
-        except ImportError:
-            raise ConfigError("shards.backend=ray needs Ray: pip install 'xicm[scale]'") from None
-    return settings
-
-
-@dataclass
-class EpisodeRunner:
-    """What run_episodes calls per pending key, and the policy's run metadata (for run.json)."""
-
-    run_one: RunOne
-    metadata: dict[str, Any]
-
-
-@contextlib.contextmanager
-def episode_runner(
-    settings: ShardSettings, cfg: DictConfig, out_dir: Path, keys: list[Key], **episode_options: Any
-) -> Iterator[EpisodeRunner]:
-    """Build the run here (`build_run`) and run episodes in this process, or on Ray actors that
-    each build their own (the driver then builds nothing). `episode_options` (max_steps, ...) go
-    to every `core.episode.run_episode` call, here or in the actors."""
-    done = {(r["task"], r["seed"], r["episode"]) for r in RunDir(out_dir).read_episodes()}
-    pending = [k for k in keys if k not in done]  # the order run_episodes will ask in
-    envs = int(cfg.get("envs", 1) or 1)
-    if envs > 1 and pending:
-        from xicm.core.batched_envs import BatchedEnvs
-
-        batched = BatchedEnvs(cfg, envs, episode_options, pending)
-        try:
-            yield EpisodeRunner(batched, batched.metadata)
-        finally:
-            batched.close()
-        return
-    if settings.backend == "local" or not pending:  # nothing to run: do not start a cluster
-        worker = EpisodeWorker(cfg, episode_options)
-        try:
-            yield EpisodeRunner(worker.run, worker.metadata())
-        finally:
-            worker.close()
-        return
-    shards = RayEpisodeShards(settings, OmegaConf.to_container(cfg, resolve=True), episode_options, pending)
-    try:
-        yield EpisodeRunner(shards, shards.metadata)
-    finally:
-        shards.close()
-
-
-class EpisodeWorker:
-    """A simulator and a policy built once (`build_run`), then episode after episode: the local
-    runner, and the state of each Ray actor."""
-
-    def __init__(self, config: DictConfig | dict[str, Any], episode_options: dict[str, Any]):
-        from xicm.core.build import build_run
-
-        cfg = config if isinstance(config, DictConfig) else OmegaConf.create(config)
-        self.episode_options = episode_options
-        self.built = build_run(cfg)
+class RayEpisodeWorker(EpisodeWorker):
+    """An actor's state: an EpisodeWorker that also says where it runs."""
 
     def where(self) -> dict[str, Any]:
         """The Ray node and process this actor runs in (copied into each of its rows' extra["shard"])."""
@@ -127,17 +44,6 @@ class EpisodeWorker:
         return {"node_id": context.get_node_id(), "node_ip": ray.util.get_node_ip_address(),
                 "host": socket.gethostname(), "pid": os.getpid()}
 
-    def metadata(self) -> dict[str, Any]:
-        return self.built.metadata()
-
-    def run(self, task: str, seed: int, episode: int) -> EpisodeResult:
-        from xicm.core.episode import run_episode
-
-        return run_episode(self.built.simulator, self.built.policy, task, seed, episode, **self.episode_options)
-
-    def close(self) -> None:
-        self.built.close()
-
 
 class RayEpisodeShards:
     """Callable (task, seed, episode) -> EpisodeResult backed by `settings.workers` Ray actors.
@@ -146,7 +52,7 @@ class RayEpisodeShards:
     WINDOW_PER_WORKER x workers results are outstanding or waiting to be asked for.
     """
 
-    def __init__(self, settings: ShardSettings, config: dict[str, Any], episode_options: dict[str, Any], order: list[Key]):
+    def __init__(self, settings: Shards, config: dict[str, Any], episode_options: dict[str, Any], order: list[Key]):
         import ray
 
         self._ray = ray
@@ -154,12 +60,9 @@ class RayEpisodeShards:
         if self._started:
             self._init_ray(settings)
         self.actors: list[Any] = []
-        self.queue: deque[Key] = deque(order)
-        self.window = WINDOW_PER_WORKER * settings.workers
+        self.window = KeyedWindow(order, WINDOW_PER_WORKER * settings.workers)
         self.in_flight: dict[Any, tuple[Key, int]] = {}  # ObjectRef -> (key, actor index)
         self.queued = [0] * settings.workers
-        self.ready: dict[Key, EpisodeResult] = {}
-        self.position = {key: i for i, key in enumerate(order)}  # lost keys go back in this order
         self.episodes_run = [0] * settings.workers
         self.alive = [True] * settings.workers
         errors = ray.exceptions
@@ -168,7 +71,7 @@ class RayEpisodeShards:
                                     errors.ObjectLostError)
         self.where: list[dict[str, Any]] = []
         try:
-            actor_class = ray.remote(num_cpus=settings.cpus_per_worker)(EpisodeWorker)
+            actor_class = ray.remote(num_cpus=settings.cpus_per_worker)(RayEpisodeWorker)
             self.actors = [actor_class.remote(config, episode_options) for _ in range(settings.workers)]
             self.where = self._wait(ray.get, [a.where.remote() for a in self.actors])  # every actor built
             self.metadata = self._wait(ray.get, self.actors[0].metadata.remote())  # the same in every actor
@@ -179,7 +82,7 @@ class RayEpisodeShards:
         placed = ", ".join(_worker_name(w) for w in self.where)
         print(f"shards: {settings.workers} Ray workers on {where}: {placed}", flush=True)
 
-    def _init_ray(self, settings: ShardSettings) -> None:
+    def _init_ray(self, settings: Shards) -> None:
         ray = self._ray
         if settings.address is not None:
             _check_reachable(settings.address)
@@ -206,18 +109,16 @@ class RayEpisodeShards:
 
     def __call__(self, task: str, seed: int, episode: int) -> EpisodeResult:
         key = (task, int(seed), int(episode))
-        while key not in self.ready:
-            if key not in {k for k, _ in self.in_flight.values()}:
+        while not self.window.is_ready(key):
+            if not self.window.is_running(key):
                 # Asked out of the expected order, or its worker was lost: run it now, ahead of the window.
-                with contextlib.suppress(ValueError):
-                    self.queue.remove(key)
-                self._submit(key)
+                self._submit(self.window.take(key))
             self._feed()
             finished, _ = self._ray.wait(list(self.in_flight), num_returns=1)
             for ref in finished:
                 if ref in self.in_flight:  # not dropped with a lost worker
                     self._collect(ref)
-        result = self.ready.pop(key)
+        result = self.window.pop(key)
         self._feed()  # keep the actors busy while the driver writes this row
         return result
 
@@ -233,7 +134,7 @@ class RayEpisodeShards:
             raise _worker_failed(exc) from exc
         self.episodes_run[index] += 1
         result.extra = {**result.extra, "shard": self.where[index]}
-        self.ready[done_key] = result
+        self.window.done(done_key, result)
 
     def _lose(self, index: int, exc: Exception, lost: list[Key]) -> None:
         """Drop a lost actor (its process or node gone) and queue its unfinished keys first, in key order."""
@@ -241,7 +142,7 @@ class RayEpisodeShards:
             if owner == index:
                 del self.in_flight[ref]
                 lost.append(key)
-        self.queue = deque(sorted([*self.queue, *lost], key=lambda k: self.position.get(k, -1)))
+        self.window.put_back(lost)
         self.queued[index] = 0
         self.alive[index] = False
         print(f"shards: lost the Ray worker {_worker_name(self.where[index])} ({type(exc).__name__}); its "
@@ -250,11 +151,11 @@ class RayEpisodeShards:
             raise XicmError("every Ray shard worker was lost (their nodes or processes died); re-run to resume")
 
     def _feed(self) -> None:
-        while self.queue and len(self.in_flight) + len(self.ready) < self.window:
+        while self.window.has_room():
             index = self._least_loaded()
             if self.queued[index] >= QUEUED_PER_WORKER:
                 return
-            self._submit(self.queue.popleft(), index)
+            self._submit(self.window.take(), index)
 
     def _least_loaded(self) -> int:
         return min((i for i, alive in enumerate(self.alive) if alive), key=self.queued.__getitem__)

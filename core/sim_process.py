@@ -15,6 +15,7 @@ from typing import Any
 from xicm.core.errors import XicmError
 from xicm.core.interfaces import Simulator
 
+
 def _serve(conn, config: dict) -> None:
     from omegaconf import OmegaConf
 
@@ -128,3 +129,33 @@ class SimulatorProcess(Simulator):
             self.process.join(timeout=30)
         if self.process.is_alive():
             self.process.kill()
+
+
+def simulator_processes(config: dict, n: int, warm_up: tuple[str, int, int] | None = None) -> list[SimulatorProcess]:
+    """`n` simulators, each in its own worker process, each reset once to the scene `warm_up`
+    (the first render of a process is slow: all at once, before any episode or client's clock;
+    a warm-up that fails is left to the episode that resets to that scene to report). All are
+    closed again if one fails to start."""
+    import contextlib
+    import threading
+
+    processes: list[SimulatorProcess] = []
+    try:
+        for _ in range(n):
+            processes.append(SimulatorProcess(config))
+    except BaseException:
+        for sim in processes:
+            sim.close()
+        raise
+    if warm_up is not None:
+
+        def reset(sim: SimulatorProcess) -> None:
+            with contextlib.suppress(Exception):
+                sim.reset(*warm_up)
+
+        threads = [threading.Thread(target=reset, args=(sim,)) for sim in processes]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    return processes

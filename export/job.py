@@ -1,25 +1,23 @@
 """xicm-export's job: record export.tasks' scripted demos at the control rate (resumable, in
-worker processes), then write them as one LeRobot dataset at export.out_dir."""
+worker processes: core/worker_pool.py, shared with xicm-collect), then write them as one
+LeRobot dataset at export.out_dir."""
 
 from __future__ import annotations
 
-import multiprocessing
-import os
-import threading
 import time
-from concurrent.futures import Future
+from dataclasses import dataclass
 from importlib.resources import files
 from pathlib import Path
+from typing import Any
 
 from omegaconf import DictConfig, OmegaConf
 
-from xicm.core import build
+from xicm.core import build, checks
 from xicm.core.collect_job import resolve_workers
 from xicm.core.collect_walk import EpisodeWalk
-from xicm.core.config_schema import XicmConfig
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import get_registry
-from xicm.core.schema import check_config
+from xicm.core.worker_pool import WorkerPool
 from xicm.export.provenance import Provenance
 from xicm.export.staging import Staging, staged_scene
 
@@ -39,16 +37,16 @@ def simulator_options(cfg: DictConfig) -> dict:
 
 
 def check_export(cfg: DictConfig) -> tuple[list[str], dict]:
-    """Every name and value, before anything is simulated; one ConfigError sentence otherwise."""
-    check_config(cfg, XicmConfig)
+    """Every name and value, before anything is simulated (core/checks.py's EXPORT parts, then a
+    per-step control mode); one ConfigError sentence otherwise."""
     registry = get_registry()
     options = simulator_options(cfg)
+    tasks = export_tasks(cfg)
     try:
-        simulator = registry.check_options("simulator", options)
+        checks.run_checks(checks.EXPORT, cfg, registry, tasks, simulator_options=options)
     except ConfigError as exc:  # export.cameras travel as simulator.cameras: name the key the user set
         raise ConfigError(str(exc).replace("simulator.cameras", "export.cameras")) from None
-    if simulator.extra.get("check") is not None:  # rules between options (rates that must divide)
-        simulator.extra["check"](options)
+    simulator = registry.get("simulator", options["name"])
     if simulator.extra.get("options") is not None:  # the options left out of the YAML take their defaults
         defaults = OmegaConf.structured(simulator.extra["options"])
         options = {"name": options["name"], **OmegaConf.to_container(OmegaConf.merge(defaults, {
@@ -58,8 +56,6 @@ def check_export(cfg: DictConfig) -> tuple[list[str], dict]:
             f"simulator '{cfg.simulator.name}' has no per-step control_mode for the dataset's action; "
             "xicm-export needs a simulator with per-step control (Simulator.control_spec)"
         )
-    tasks = export_tasks(cfg)
-    build.check_tasks(registry, tasks, cfg.simulator.name)
     return tasks, options
 
 
@@ -77,12 +73,16 @@ def run_export(cfg: DictConfig) -> dict:
     workers = resolve_workers(ex.workers)
     walk = EpisodeWalk(tasks, int(ex.demos_per_task), int(ex.seed), float(ex.max_attempts_factor), in_flight=2 * workers)
     start = time.perf_counter()
-    with Recorders(options, cameras, int(ex.seed), workers) as recorders:
-        spec = recorders.facts["spec"]
+    seed = int(ex.seed)
+    resume = "every recorded episode is staged: run the same command again to resume"
+    with WorkerPool(workers, _recorder_from, (options, cameras), "an export", resume) as pool:
+        facts = pool.submit(_facts).result()
+        spec = facts["spec"]
         fps = float(spec.control_hz)
         if fps != int(fps):
             raise ConfigError(f"simulator.control_hz must be a whole number of steps per second for a LeRobot dataset (fps), not {fps}")
-        counts = walk.run(recorders.attempt, None, recorders.facts["workspace"], bool(cfg.progress), writer=staging, desc="export")
+        counts = walk.run(lambda task, episode: pool.submit(_attempt, task, seed, episode), None, facts["workspace"],
+                          bool(cfg.progress), writer=staging, desc="export")
     recorded = time.perf_counter() - start
     episodes = [p for t in tasks for p in staging.episodes(t, int(ex.seed), int(ex.demos_per_task))]
     if not episodes:
@@ -93,7 +93,7 @@ def run_export(cfg: DictConfig) -> dict:
     provenance = [Provenance(*staged_scene(p), options["name"], recorded_in).columns() for p in episodes]
     start = time.perf_counter()
     write_dataset(
-        out_dir, episodes, repo_id=str(ex.repo_id), fps=int(fps), sizes=recorders.facts["sizes"],
+        out_dir, episodes, repo_id=str(ex.repo_id), fps=int(fps), sizes=facts["sizes"],
         spec=spec, use_videos=bool(ex.use_videos), frames=str(ex.frames),
         vcodec=str(ex.vcodec), cache=cfg.paths.cache, episode_metadata=provenance,
     )
@@ -108,78 +108,30 @@ def run_export(cfg: DictConfig) -> dict:
             "write_s": written}
 
 
-class Recorders:
-    """The simulators that record: one in this process (workers == 1) or one per worker process.
-    `facts` holds what the dataset's layout is read from (the simulator's workspace, control
-    spec and camera sizes); `attempt(task, episode)` records one episode (a Future)."""
+@dataclass
+class Recorder:
+    """A worker's state: the simulator that records, and the cameras it records."""
 
-    def __init__(self, options: dict, cameras: list[str], seed: int, workers: int):
-        self.options, self.cameras, self.seed, self.workers = options, cameras, seed, workers
-        self.simulator = self.pool = None
+    simulator: Any
+    cameras: list[str]
 
-    def __enter__(self) -> "Recorders":
-        if self.workers == 1:
-            self.simulator = get_registry().create_simulator(self.options)
-            self.facts = _facts(self.simulator, self.cameras)
-            return self
-        from concurrent.futures import ProcessPoolExecutor
-
-        context = multiprocessing.get_context("spawn")  # a forked SAPIEN/Vulkan state is not safe
-        self.pool = ProcessPoolExecutor(self.workers, mp_context=context, initializer=_worker_start,
-                                        initargs=(self.options, self.cameras))
-        try:
-            self.facts = self.pool.submit(_worker_facts).result()
-        except BaseException:
-            self.pool.shutdown(cancel_futures=True)
-            raise
-        return self
-
-    def attempt(self, task: str, episode: int) -> Future:
-        if self.pool is not None:
-            return self.pool.submit(_worker_attempt, task, self.seed, episode)
-        from xicm.export.record import attempt_episode
-
-        done: Future = Future()
-        done.set_result(attempt_episode(self.simulator, task, self.seed, episode, self.cameras))
-        return done
-
-    def __exit__(self, kind, exc, tb) -> None:
-        if self.simulator is not None:
-            self.simulator.close()
-        if self.pool is not None:
-            self.pool.shutdown(cancel_futures=exc is not None)
-        from concurrent.futures.process import BrokenProcessPool
-
-        if isinstance(exc, BrokenProcessPool):
-            raise RuntimeError(
-                "an export worker process died (see its message above); every recorded episode is staged: "
-                "run the same command again to resume"
-            ) from exc
+    def close(self) -> None:
+        self.simulator.close()
 
 
-def _facts(simulator, cameras: list[str]) -> dict:
-    sizes = simulator.image_sizes()
-    return {"workspace": simulator.workspace, "spec": simulator.control_spec(), "sizes": {c: tuple(sizes[c]) for c in cameras}}
+def _recorder_from(config: tuple[dict, list[str]]) -> Recorder:
+    options, cameras = config
+    return Recorder(get_registry().create_simulator(options), cameras)
 
 
-# --- worker processes: one simulator each, kept for the whole export -------------------------
-_WORKER: dict = {}
+def _facts(recorder: Recorder) -> dict:
+    """What the dataset's layout is read from: the simulator's workspace, control spec and camera sizes."""
+    sizes = recorder.simulator.image_sizes()
+    return {"workspace": recorder.simulator.workspace, "spec": recorder.simulator.control_spec(),
+            "sizes": {c: tuple(sizes[c]) for c in recorder.cameras}}
 
 
-def _worker_start(options: dict, cameras: list[str]) -> None:
-    from xicm.core.collect import _exit_with_parent
-
-    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
-    os.environ.setdefault("LP_NUM_THREADS", "1")  # one software-rendering thread per worker
-    _WORKER["simulator"] = get_registry().create_simulator(options)
-    _WORKER["cameras"] = cameras
-
-
-def _worker_facts() -> dict:
-    return _facts(_WORKER["simulator"], _WORKER["cameras"])
-
-
-def _worker_attempt(task: str, seed: int, episode: int):
+def _attempt(recorder: Recorder, task: str, seed: int, episode: int):
     from xicm.export.record import attempt_episode
 
-    return attempt_episode(_WORKER["simulator"], task, seed, episode, _WORKER["cameras"])
+    return attempt_episode(recorder.simulator, task, seed, episode, recorder.cameras)

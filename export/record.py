@@ -10,14 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from xicm.core import encoding
-from xicm.core.collect_walk import Attempt
+from xicm.core.collect_walk import Attempt, NoDemo, attempt
 from xicm.core.interfaces import Simulator
 from xicm.export import features as feats
 from xicm.export.staging import StagedEpisode
-
-
-class NoDemo(Exception):
-    """The episode gives no demo (the reason goes to the staging folder's attempt log)."""
 
 
 def record_episode(simulator: Simulator, task: str, seed: int, episode: int, cameras: list[str]) -> StagedEpisode:
@@ -63,10 +59,4 @@ def key_action_columns(key_steps, key_actions, steps: int, workspace) -> dict[st
 
 def attempt_episode(simulator: Simulator, task: str, seed: int, episode: int, cameras: list[str]) -> Attempt:
     """record_episode that never raises: the outcome of one episode, ready to be committed."""
-    try:
-        staged = record_episode(simulator, task, seed, episode, cameras)
-    except NoDemo as exc:
-        return Attempt(task, int(episode), None, str(exc), error=False)
-    except Exception as exc:  # noqa: BLE001 - a failed episode must not stop the export
-        return Attempt(task, int(episode), None, f"{type(exc).__name__}: {exc}", error=True)
-    return Attempt(task, int(episode), staged, "", error=False)
+    return attempt(task, episode, lambda: (record_episode(simulator, task, seed, episode, cameras), ""))

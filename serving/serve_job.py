@@ -6,10 +6,11 @@ import logging
 
 from omegaconf import DictConfig, OmegaConf
 
-from xicm.core.build import Run, build_policy, check_run
+from xicm.core.build import Run, build_run
+from xicm.core.checks import check_run
 from xicm.core.errors import ConfigError
-from xicm.core.sim_process import SimulatorProcess
 from xicm.core.plugins import get_registry
+from xicm.core.sim_process import simulator_processes
 from xicm.serving.keys import KeyNotSet, key_from_env
 from xicm.serving.served_policy import ServedPolicies
 from xicm.serving.server import PolicyServer
@@ -23,14 +24,8 @@ def serve_policy(cfg: DictConfig, ready=None) -> None:
 
     warm_up = (str(cfg.benchmark.tasks[0]), 0, 0)
 
-    def build() -> Run:  # a session: its simulator in a worker process, its policy here
-        simulator = SimulatorProcess(config)
-        try:
-            simulator.reset(*warm_up)  # the first render of a process is slow: not on a client's clock
-            return Run(simulator, build_policy(cfg, registry, simulator), str(cfg.policy.name))
-        except BaseException:
-            simulator.close()
-            raise
+    def build() -> Run:  # a session: its simulator in a worker process (warmed up, not on a client's clock), its policy here
+        return build_run(cfg, registry, simulator=simulator_processes(config, 1, warm_up)[0])
 
     try:
         api_key = key_from_env(cfg.serve.api_key_env, "serve.api_key_env")
@@ -38,7 +33,8 @@ def serve_policy(cfg: DictConfig, ready=None) -> None:
         raise ConfigError(str(exc)) from None
     if int(cfg.serve.sessions) > int(cfg.serve.max_sessions):
         raise ConfigError(f"serve.sessions ({cfg.serve.sessions}) is over serve.max_sessions ({cfg.serve.max_sessions}): sessions past the cap would never be used")
-    served = ServedPolicies(build, sessions=int(cfg.serve.sessions))
+    served = ServedPolicies(build, sessions=int(cfg.serve.sessions), instructions=str(cfg.benchmark.instructions),
+                             scene_seed=cfg.benchmark.scene_seed)
     idle = cfg.serve.idle_timeout_s
     server = PolicyServer(served, host=str(cfg.serve.host), port=int(cfg.serve.port), metadata=served.metadata(),
                           api_key=api_key, max_sessions=int(cfg.serve.max_sessions),

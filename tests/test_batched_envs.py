@@ -7,7 +7,8 @@ import pytest
 from hydra import compose, initialize_config_module
 
 from xicm.core.batched_envs import BatchedEnvs, Lockstep
-from xicm.core.build import check_envs
+from xicm.core.checks import CheckInput, run_modes
+from xicm.core.plugins import get_registry
 from xicm.core.episode import run_episode
 from xicm.core.errors import ConfigError
 from xicm.core.interfaces import Policy
@@ -73,7 +74,7 @@ def compose_cfg(*overrides):
 )
 def test_envs_that_cannot_work_stop_at_start(overrides, words):
     with pytest.raises(ConfigError, match=words):
-        check_envs(compose_cfg(*overrides))
+        run_modes(CheckInput(compose_cfg(*overrides), get_registry(), []))
 
 
 @pytest.mark.slow

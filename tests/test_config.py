@@ -7,7 +7,7 @@ from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
 from cli_in_process import run_main
-from xicm.core import build
+from xicm.core import build, checks
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import UnknownPluginError, get_registry
 
@@ -42,13 +42,13 @@ def test_retriever_choice_sets_its_encoder():
 def test_unknown_plugin_name_stops_with_the_list(tmp_path):
     cfg = _compose(["llm.name=nope"])
     with pytest.raises(UnknownPluginError, match="unknown llm 'nope'; available: .*nearest_demo"):
-        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
+        checks.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
 def test_unknown_task_stops_with_the_list():
     cfg = _compose(["benchmark.tasks=[open_drawer,make_coffee]"])
     with pytest.raises(ConfigError, match="unknown task 'make_coffee' for simulator 'sapien'; available: .*open_drawer"):
-        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
+        checks.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
 @pytest.mark.parametrize("value, workers", [("auto", None), (1, 1), ("3", 3)])
@@ -61,7 +61,7 @@ def test_collect_workers(value, workers):
 def test_missing_pool_says_what_to_run_before_anything_is_built(tmp_path):
     cfg = _compose([f"paths.data={tmp_path}"])
     with pytest.raises(ConfigError, match=f"no demonstration pool at {tmp_path}/pools/smoke.h5; run `xicm-collect"):
-        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
+        checks.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
 @pytest.fixture
@@ -114,7 +114,7 @@ def test_cli_malformed_override_is_reported(cli, tmp_path):
 def test_unknown_policy_stops_with_the_list():
     cfg = _compose(["policy.name=greedy"])
     with pytest.raises(UnknownPluginError, match="unknown policy 'greedy'; available: oracle, remote, xicm"):
-        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
+        checks.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
 def test_long_sweep_folder_names_are_cut_and_hashed():

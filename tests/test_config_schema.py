@@ -10,7 +10,7 @@ import pytest
 from hydra import compose, initialize_config_module
 
 from cli_in_process import run_main
-from xicm.core import build
+from xicm.core import build, checks
 from xicm.core.config_schema import XicmConfig
 from xicm.core.errors import ConfigError
 from xicm.core.plugins import DEFAULT_PLUGINS, get_registry
@@ -106,7 +106,7 @@ def test_xicm_collect_stops_at_start_with_one_sentence(cli, tmp_path):
 def test_a_value_out_of_range_stops_the_run_and_the_collection(override, sentence):
     cfg = _compose([override])  # the type is right, so Hydra composes it
     with pytest.raises(ConfigError) as run:
-        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
+        checks.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
     assert str(run.value) == sentence
     with pytest.raises(ConfigError, match=f"^{re.escape(sentence)}$"):
         check_overrides([override], XicmConfig)  # the same sentence on the command line, before Hydra
@@ -176,7 +176,7 @@ def test_a_key_the_config_does_not_have_is_one_sentence(override, sentence):
 def test_the_simulator_and_the_policy_options_are_checked_before_anything_is_built(overrides, sentence):
     cfg = _compose(overrides)
     with pytest.raises(ConfigError) as err:
-        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
+        checks.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
     assert str(err.value) == sentence
 
 
@@ -207,7 +207,7 @@ def test_the_simulator_and_the_policy_options_are_checked_before_anything_is_bui
 def test_the_policy_parts_options_are_checked_before_anything_is_built(tmp_path, overrides, sentence):
     cfg = _compose([f"paths.data={tmp_path}", *overrides])  # no pool there: the options are checked before it
     with pytest.raises(ConfigError) as err:
-        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
+        checks.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
     assert str(err.value) == sentence
 
 
@@ -326,7 +326,7 @@ def test_a_replaced_simulator_option_names_the_key_that_replaced_it():
     cfg = _compose(["+simulator.sample_variations=false"])
     with pytest.raises(ConfigError, match=r"^simulator.sample_variations is no longer an option of simulator 'sapien'; "
                                           r"set benchmark.variations \(zero \| sampled\) instead$"):
-        build.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
+        checks.check_run(cfg, get_registry(), list(cfg.benchmark.tasks))
 
 
 # ------------------------------------------------------------------ xicm-train-dynamics (the dynamics plugin's config)

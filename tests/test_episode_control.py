@@ -121,7 +121,7 @@ def test_benchmark_variations_sets_the_simulators_sample_variations():
 
 def test_an_unknown_benchmark_variations_value_is_one_sentence():
     from xicm.core.errors import ConfigError
-    from xicm.core.build import check_run
+    from xicm.core.checks import check_run
     from xicm.core.plugins import get_registry
 
     cfg = _compose("benchmark.variations=all")

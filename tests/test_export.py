@@ -126,6 +126,31 @@ def test_cli_bad_input_prints_one_sentence_and_no_traceback(tmp_path):
     ]
 
 
+@pytest.mark.slow
+@pytest.mark.subprocess
+def test_worker_processes_record_what_this_process_records(tmp_path):
+    """xicm-export's worker pool (core/worker_pool.py, shared with xicm-collect): the same episodes
+    recorded in two spawned processes and in this one give the same layout and arrays."""
+    from xicm.core.worker_pool import WorkerPool
+    from xicm.export.job import _attempt, _facts, _recorder_from
+
+    _, options = check_export(_compose("simulator.image_size=32", "export.cameras=[front]"))
+    recorded = {}
+    for workers in (1, 2):
+        with WorkerPool(workers, _recorder_from, (options, ["front"]), "an export", "nothing to resume") as pool:
+            facts = pool.submit(_facts).result()
+            futures = [pool.submit(_attempt, "push_buttons", 10_000, e) for e in range(2)]
+            recorded[workers] = facts["sizes"], [f.result() for f in futures]
+    (sizes_1, alone), (sizes_2, spread) = recorded[1], recorded[2]
+    assert sizes_1 == sizes_2 == {"front": (32, 32)}
+    for a, b in zip(alone, spread):
+        assert (a.episode, a.note, a.error, a.demo is None) == (b.episode, b.note, b.error, b.demo is None)
+        if a.demo is not None:
+            assert a.demo.arrays.keys() == b.demo.arrays.keys()
+            assert all(np.array_equal(a.demo.arrays[k], b.demo.arrays[k]) for k in a.demo.arrays)
+    assert any(a.demo is not None for a in alone)
+
+
 # ------------------------------------------------------------------ a real export (slow)
 def _lerobot_env_missing() -> str | None:
     import ctypes.util

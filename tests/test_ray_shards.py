@@ -20,7 +20,9 @@ from omegaconf import OmegaConf
 
 from xicm.core.errors import XicmError
 from xicm.core.run_dir import config_fingerprint
-from xicm.core.ray_shards import RayEpisodeShards, ShardSettings, shard_settings
+from xicm.core.config_schema import Shards
+from xicm.core.episode_runner import shard_options
+from xicm.core.ray_shards import RayEpisodeShards
 from xicm.serving.ports import free_port
 
 from ray_cluster import RayNodes
@@ -53,18 +55,19 @@ def _worker_counts(output: str) -> dict[int, int]:
 
 def test_ray_is_imported_only_when_a_run_uses_it():
     code = (
-        "import sys; from xicm.core import eval_job, ray_shards;"
-        "ray_shards.shard_settings(__import__('omegaconf').OmegaConf.create({'shards': {'backend': 'local'}}));"
+        "import sys; from xicm.core import eval_job, episode_runner;"
+        "episode_runner.shard_options(__import__('omegaconf').OmegaConf.create({'shards': {'backend': 'local', "
+        "'workers': 1, 'address': None, 'cpus_per_worker': 1}}));"
         "print('ray' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "False"
 
 
-def test_settings_come_from_the_shards_keys():  # their bad values: tests/test_config_schema.py
-    assert shard_settings(_compose()) == ShardSettings("local", 2, None, 1.0)
-    ray = shard_settings(_compose(["shards.backend=ray", "shards.workers=3", "shards.address=auto", "shards.cpus_per_worker=0.5"]))
-    assert ray == ShardSettings("ray", 3, "auto", 0.5)
+def test_settings_are_the_typed_shards_options():  # their bad values: tests/test_config_schema.py
+    assert shard_options(_compose()) == Shards("local", 2, None, 1)
+    ray = shard_options(_compose(["shards.backend=ray", "shards.workers=3", "shards.address=auto", "shards.cpus_per_worker=0.5"]))
+    assert ray == Shards("ray", 3, "auto", 0.5)
 
 
 def test_sharding_does_not_change_what_a_run_is():
@@ -79,7 +82,7 @@ def test_an_unreachable_cluster_address_fails_at_once():
     ray = pytest.importorskip("ray")
     port = free_port()  # nobody listens there
     with pytest.raises(XicmError, match=rf"cannot reach the Ray cluster at shards.address=127.0.0.1:{port} "):
-        RayEpisodeShards(ShardSettings("ray", 1, f"127.0.0.1:{port}", 1.0), {}, {}, [("open_drawer", 0, 0)])
+        RayEpisodeShards(Shards("ray", 1, f"127.0.0.1:{port}", 1.0), {}, {}, [("open_drawer", 0, 0)])
     assert not ray.is_initialized()
 
 
@@ -89,7 +92,7 @@ def test_a_worker_that_cannot_build_stops_the_run_with_its_reason_and_the_cluste
     ray = pytest.importorskip("ray")
     config = {"simulator": {"name": "no_such_simulator"}, "max_steps": 3}
     with pytest.raises(XicmError, match="a Ray shard worker failed .*unknown simulator 'no_such_simulator'; available: sapien"):
-        RayEpisodeShards(ShardSettings("ray", 1, None, 0.5), config, {}, [("open_drawer", 0, 0)])
+        RayEpisodeShards(Shards("ray", 1, None, 0.5), config, {}, [("open_drawer", 0, 0)])
     assert not ray.is_initialized()
 
 
@@ -150,7 +153,7 @@ def test_a_killed_worker_s_episodes_run_on_the_other_and_losing_the_last_one_sto
     cfg = _compose(["policy=oracle", "simulator.cameras=[front]", "simulator.image_size=64", f"paths.data={tmp_path}/x"])
     config = OmegaConf.to_container(cfg)  # unresolved: the run name and tracking keys need a Hydra job
     keys = [("push_buttons", 0, e) for e in range(6)]
-    shards = RayEpisodeShards(ShardSettings("ray", 2, None, 0.5), config, {"max_steps": 3}, keys)
+    shards = RayEpisodeShards(Shards("ray", 2, None, 0.5), config, {"max_steps": 3}, keys)
     try:
         first = shards(*keys[0])
         doomed = next(i for i, n in enumerate(shards.queued) if n)  # an actor with keys handed out

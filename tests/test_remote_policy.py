@@ -13,6 +13,8 @@ from serve_wait import wait_for_serving
 
 from xicm.core.build import Run
 from xicm.core.episode import run_episode
+from xicm.core.errors import EpisodeFailure
+from xicm.core.interfaces import Policy
 from xicm.plugins.policies.oracle import OraclePolicy
 from xicm.plugins.policies.remote import RemotePolicy, RemotePolicyOptions
 from xicm.serving.client import PolicyClient, server_uri
@@ -112,6 +114,51 @@ def test_a_served_oracle_plays_exactly_the_oracles_episodes(sim):
     finally:
         server.stop()
         server_sim.close()
+
+
+class InstructionsSeen(Policy):
+    """Records the instruction of every observation it is reset with or asked on, then gives up."""
+
+    observes = True
+
+    def __init__(self):
+        self.seen: list[tuple[str, str]] = []
+
+    def reset(self, task, obs, rng) -> None:
+        self.seen.append(("reset", obs.instruction))
+
+    def act(self, obs):
+        self.seen.append(("act", obs.instruction))
+        raise EpisodeFailure("no_actions", "this policy only records instructions")
+
+
+def test_a_served_episode_reads_the_same_reworded_instruction_as_a_local_one(sim):
+    """benchmark.instructions=sampled rewords variation 0's instruction per episode: the server
+    starts its episodes as a local run does (core.episode.start_episode), even for a client
+    that does not reword."""
+    from xicm.core.plugins import get_registry
+
+    task, episodes = "close_fridge", range(4)
+    server_sim = get_registry().create_simulator({"name": "sapien", "image_size": 32, "cameras": ["front"]})
+    server_sim.sample_variations = False
+    served_policy = InstructionsSeen()
+    served = ServedPolicy(Run(server_sim, served_policy, "instructions"), instructions="sampled")
+    server = PolicyServer(served, port=0, metadata=served.metadata()).start()
+    kept, sim.sample_variations = sim.sample_variations, False  # variation 0: the one reworded
+    try:
+        local_policy = InstructionsSeen()
+        for episode in episodes:
+            run_episode(sim, local_policy, task, 0, episode, instructions="sampled")
+            client = remote(server.port, sim.control_spec(), control_mode="auto", images={})
+            failed = run_episode(sim, client, task, 0, episode, instructions="agnostos")
+            assert failed.error_kind == "no_actions"
+    finally:
+        sim.sample_variations = kept
+        server.stop()
+        server_sim.close()
+    assert served_policy.seen == local_policy.seen
+    plain = sim.task_info(task).instruction
+    assert len({text for _, text in local_policy.seen} - {plain}) >= 2  # reworded, differently per episode
 
 
 BIN = Path(sys.executable).parent

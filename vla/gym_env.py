@@ -45,6 +45,7 @@ class XicmEnv(gymnasium.Env):
         simulator: str = "sapien",
         simulator_options: dict[str, Any] | None = None,
     ):
+        from xicm.core.checks import check_simulator_options
         from xicm.core.plugins import get_registry
 
         if obs_mode not in OBS_MODES:
@@ -59,9 +60,7 @@ class XicmEnv(gymnasium.Env):
         # a state-only env renders nothing: the simulator keeps its own cameras (whatever they are called)
         options = {"name": simulator, **(pictures if render else {}), "control_mode": control_mode, "render": render,
                    **(simulator_options or {})}
-        check = registry.check_options("simulator", options).extra.get("check")
-        if check is not None:
-            check(options)
+        check_simulator_options(registry, options)
         self.task, self.obs_mode, self.render_mode = task, obs_mode, render_mode
         self.cameras = [str(c) for c in cameras]
         self.sim = registry.create_simulator(options)

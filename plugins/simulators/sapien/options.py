@@ -125,7 +125,7 @@ REPLACED = {"sample_variations": "benchmark.variations (zero | sampled)"}
 
 
 def check_rates(options: dict) -> None:
-    """The simulator group's rule between options (core.build.check_run calls it before building)."""
+    """The simulator group's rule between options (core.checks calls it before building)."""
     from xicm.core.plugins import options_object
 
     values = options_object(SapienOptions, {k: v for k, v in options.items() if k != "name"})

@@ -3,7 +3,7 @@
 
 import json
 
-from xicm.core.episode_loop import run_episodes
+from xicm.core.run_loop import run_all_episodes
 from xicm.core.run_dir import EPISODES, episode_keys
 from xicm.core.types import EpisodeResult
 
@@ -27,12 +27,12 @@ def test_resume_skips_finished_episodes_and_loses_none(tmp_path):
     assert len(keys) == 12 and keys[0] == ("a", 0, 0) and keys[3] == ("b", 0, 0)
     first = Recorder(crash_at=("b", 0, 1))
     try:
-        run_episodes(first, keys, tmp_path, progress=False)
+        run_all_episodes(first, keys, tmp_path, progress=False)
     except KeyboardInterrupt:
         pass
     assert len(first.calls) == 4
     second = Recorder()
-    rows = run_episodes(second, keys, tmp_path, progress=False)
+    rows = run_all_episodes(second, keys, tmp_path, progress=False)
     assert second.calls == keys[4:]
     assert len(rows) == 12
     lines = (tmp_path / EPISODES).read_text().splitlines()
@@ -41,11 +41,11 @@ def test_resume_skips_finished_episodes_and_loses_none(tmp_path):
 
 def test_a_torn_last_line_is_dropped_and_redone(tmp_path):
     keys = episode_keys(["a"], [0], 3)
-    run_episodes(Recorder(), keys[:2], tmp_path, progress=False)
+    run_all_episodes(Recorder(), keys[:2], tmp_path, progress=False)
     path = tmp_path / EPISODES
     path.write_text(path.read_text() + '{"task": "a", "seed": 0, "epis')  # killed mid-write
     again = Recorder()
-    rows = run_episodes(again, keys, tmp_path, progress=False)
+    rows = run_all_episodes(again, keys, tmp_path, progress=False)
     assert again.calls == [("a", 0, 2)]
     assert [r["episode"] for r in rows] == [0, 1, 2]
     assert all(json.loads(l) for l in path.read_text().splitlines())

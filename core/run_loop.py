@@ -1,5 +1,8 @@
-"""Run a run's episodes one after another into its episodes.jsonl, skipping those already there
-(so a killed or extended run resumes where it stopped)."""
+"""The outer loop: a run's (task, seed, episode) keys one after another into its episodes.jsonl.
+
+Keys already there are skipped, so a killed or extended run resumes where it stopped. Each
+key's episode is one `core.episode.run_episode`, wherever it runs (the dispatcher:
+core/episode_runner.py); the loop inside an episode is core/episode.py's."""
 
 from __future__ import annotations
 
@@ -12,8 +15,8 @@ from xicm.core.run_dir import RunDir
 from xicm.core.types import EpisodeResult
 
 
-def run_episodes(
-    run_episode: Callable[[str, int, int], EpisodeResult],
+def run_all_episodes(
+    run_one: Callable[[str, int, int], EpisodeResult],
     keys: list[tuple[str, int, int]],
     out_dir: Path,
     progress: bool = True,
@@ -27,7 +30,7 @@ def run_episodes(
         bar = _progress(len(keys), initial=len(keys) - len(todo), enabled=progress)
         successes = sum(1 for k in keys if k in done and done[k]["success"])
         for task, seed, episode in todo:
-            result = run_episode(task, seed, episode)
+            result = run_one(task, seed, episode)
             row = dataclasses.asdict(result)
             append(row)
             done[(task, seed, episode)] = row
