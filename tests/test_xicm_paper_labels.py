@@ -17,6 +17,8 @@ UP = (1.0, 0.0, 0.0, 0.0)
 class Recording(LLM):
     """Test LLM: keeps every prompt, answers one action that leaves the scene as it is."""
 
+    deterministic = True
+
     def __init__(self):
         self.prompts = []
 
