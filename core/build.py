@@ -43,7 +43,7 @@ class Run:
         self.simulator.close()
 
 
-def create_simulator(cfg: DictConfig, registry: Registry) -> Simulator:
+def simulator_for_run(cfg: DictConfig, registry: Registry) -> Simulator:
     """The run's simulator; benchmark.variations (zero | sampled) decides whether episodes use
     variation 0 or one sampled from (seed, task, episode)."""
     simulator = registry.create_simulator(group_options(cfg, "simulator"))
@@ -59,7 +59,7 @@ def build_run(
     `envs=N` slots and xicm-serve-policy sessions pass `simulator`, a proxy of one in a worker
     process (core/sim_process.py). The simulator is closed if the policy fails to build."""
     registry = registry or get_registry()
-    simulator = simulator if simulator is not None else create_simulator(cfg, registry)
+    simulator = simulator if simulator is not None else simulator_for_run(cfg, registry)
     if not with_policy:
         return Run(simulator, None)
     try:
