@@ -290,6 +290,8 @@ class StraightenRope(Task):
         # 2) the tail: out to the zone distance, then round the head at that radius
         hub = np.asarray(self.head.entity.pose.p)
         tail = self.tail.entity.pose
+        if not (np.isfinite(hub).all() and np.isfinite(tail.p).all()):
+            return  # the rope's joints diverged (NaN poses): this demo fails, so its scene is redrawn
         here = np.asarray(tail.p)[:2] - hub[:2]
         a0 = float(np.arctan2(here[1], here[0]))
         offset = tail_t[:2] - hub[:2]
