@@ -77,7 +77,7 @@ def _build(spec: EnvSpec, final: Path, log) -> None:
             _run(spec, [*pip, "--no-deps", *spec.no_deps], build_log, env)
         if spec.requirements:
             _run(spec, [*pip, *spec.requirements], build_log, env)
-        _run(spec, [python, "-c", spec.check], build_log, env)
+        _run(spec, [python, "-P", "-c", spec.check], build_log, env)  # -P: the cwd (maybe xicm's root, with its lerobot/) off sys.path
         (tmp / READY).write_text(f"built in {time.perf_counter() - start:.0f} s\n")
         os.replace(tmp, final)
     except BaseException:

@@ -23,13 +23,16 @@ SMALL_ACT = (
     "--policy.n_encoder_layers=2", "--policy.n_vae_encoder_layers=2", "--policy.chunk_size=20",
     "--policy.n_action_steps=20",
 )
+# `python -P -m`: the working directory stays off sys.path, so a run started in xicm's repository
+# root imports the real lerobot, not xicm's lerobot/ folder of the same name
+LEROBOT_TRAIN = ("-P", "-m", "lerobot.scripts.lerobot_train")
 FIXED = ("--policy.push_to_hub=false", "--policy.pretrained_backbone_weights=null", "--wandb.enable=false")
 
 
 def train_command(python: Path, dataset: Path, output: Path, steps: int, batch_size: int, device: str, extra: list[str]) -> list[str]:
     repo_id = f"xicm/{dataset.name}"  # a name only: the data is read from dataset.root
     return [
-        str(python), "-m", "lerobot.scripts.lerobot_train",
+        str(python), *LEROBOT_TRAIN,
         f"--dataset.repo_id={repo_id}", f"--dataset.root={dataset}", f"--output_dir={output}",
         f"--steps={steps}", f"--batch_size={batch_size}", f"--policy.device={device}", "--num_workers=0",
         f"--save_freq={steps}", "--log_freq=50", *SMALL_ACT, *FIXED, *extra,  # later options win
@@ -41,7 +44,7 @@ def resume_command(python: Path, output: Path, steps: int | None, extra: list[st
     (--steps raises the total, e.g. to train further than first planned)."""
     config = output / "checkpoints" / "last" / "pretrained_model" / "train_config.json"
     more = [f"--steps={steps}"] if steps is not None else []
-    return [str(python), "-m", "lerobot.scripts.lerobot_train", f"--config_path={config}", "--resume=true", *more, *extra]
+    return [str(python), *LEROBOT_TRAIN, f"--config_path={config}", "--resume=true", *more, *extra]
 
 
 def main() -> None:
