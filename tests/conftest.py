@@ -1,5 +1,5 @@
-"""Shared fixtures; plugins for the lanes' markers (lanes.py), the file order (file_order.py) and
-the strict-skip rule (strict_skips.py).
+"""Shared fixtures; plugins for the lanes' markers (lanes.py), the cached builds started beside
+the suite (prebuild.py), the test order (file_order.py) and the strict-skip rule (strict_skips.py).
 
 Lanes (markers in pyproject.toml): `pytest -m "not slow"` is the developer's fast lane;
 `bash scripts/test.sh` (CI) runs everything. XICM_TEST_ORDER=reverse (or --reverse-files) runs
@@ -14,7 +14,7 @@ os.environ.setdefault("WANDB_MODE", "disabled")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 os.environ.setdefault("TRANSFORMERS_OFFLINE", "1")
 
-pytest_plugins = ["lanes", "file_order", "strict_skips", "pytester"]
+pytest_plugins = ["lanes", "prebuild", "file_order", "strict_skips", "pytester"]
 
 
 @pytest.fixture(scope="session")

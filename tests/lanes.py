@@ -1,6 +1,7 @@
 """A pytest plugin (loaded by conftest.py): the lanes' rules. Every `slow` test must also carry a
-marker saying what makes it slow (one of the others pyproject.toml registers), and `venv` tests
-get a longer per-test timeout than pyproject's `timeout`."""
+marker saying what makes it slow (one of the others pyproject.toml registers), and the tests that
+wait for a build cached per machine (tests/prebuild.py) get a longer per-test timeout than
+pyproject's `timeout`."""
 
 from __future__ import annotations
 
@@ -8,8 +9,10 @@ import tomllib
 
 import pytest
 
-#: per-test limit of the tests that build an isolated environment: a lerobot environment built
-#: from nothing takes ~10 min, and a test may train in it afterwards
+from prebuild import waits_for_a_build
+
+#: per-test limit of the tests that wait for a cached build: a lerobot environment built from
+#: nothing takes ~10 min and a test may train in it afterwards; llama-server compiles 7-12 min
 VENV_TIMEOUT_S = 1800
 
 
@@ -26,5 +29,5 @@ def pytest_collection_modifyitems(config, items):
     if unexplained:
         raise pytest.UsageError(f"slow tests must also carry what makes them slow ({', '.join(sorted(reasons))}): {unexplained}")
     for item in items:
-        if item.get_closest_marker("venv") and not item.get_closest_marker("timeout"):
+        if waits_for_a_build(item) and not item.get_closest_marker("timeout"):
             item.add_marker(pytest.mark.timeout(VENV_TIMEOUT_S))

@@ -1,8 +1,8 @@
 """A pytest plugin (loaded by conftest.py): with XICM_STRICT_SKIPS=1 or CI=true, a skipped test,
 or a test file skipped at import, fails instead.
 
-scripts/test.sh installs every extra (`xicm[all]`), chromium, FFmpeg and llama-server before it
-runs the suite, so there a skip means a broken install (an `importorskip` of torch that finds
+scripts/test.sh installs every extra (`xicm[all]`), chromium, FFmpeg and llama-server's compilers
+before it runs the suite, so there a skip means a broken install (an `importorskip` of torch that finds
 none), not an optional part left out. Only skips that name a platform the test command cannot
 provide stay skips (PLATFORM_SKIPS). Without the variable, skips stay skips: a developer
 without an extra still runs the rest."""

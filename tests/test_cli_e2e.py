@@ -138,6 +138,7 @@ def test_train_dynamics_then_a_selection_sweep_shares_one_feature_cache(workdir)
     assert len(list((work / "cache" / "features").glob("dynamics*.npy"))) == 1  # computed once, reused by the second job
 
 
+@pytest.mark.llama_server
 def test_eval_with_llamacpp_runs_the_grammar_and_leaves_no_server(workdir, tmp_path):
     """llm=llamacpp through xicm-eval on a tiny GGUF (tests/tiny_gguf.py): every reply is an
     action list, and the server is gone when the command has exited."""
@@ -150,7 +151,7 @@ def test_eval_with_llamacpp_runs_the_grammar_and_leaves_no_server(workdir, tmp_p
     work, common = workdir
     model = write_tiny_gguf(tmp_path / "tiny-e2e.gguf")
     args = ["benchmark=smoke", "episodes=1", "policy.k=2", "llm=llamacpp", f"llm.model={model}",
-            f"llm.binary={llama_server_binary(build=False)}", "llm.chat_template=raw", "llm.threads=1",
+            f"llm.binary={llama_server_binary()}", "llm.chat_template=raw", "llm.threads=1",
             "policy.max_llm_calls=2", "hydra.run.dir=llamacpp", *common]
     _run("xicm-eval", *args, cwd=work)
     rows = [json.loads(l) for l in (work / "llamacpp" / "episodes.jsonl").read_text().splitlines()]

@@ -1,7 +1,8 @@
 """The llama.cpp engine (llm `llamacpp`) on a real llama-server and a tiny GGUF written by the
 `gguf` package (tests/tiny_gguf.py): the action grammar, the chat template, prefix reuse,
 repeatable replies, the prompt that does not fit, and the server's lifecycle (stop, and a
-SIGKILLed owner). The llama-server is the cached build (scripts/test.sh builds it)."""
+SIGKILLed owner). The llama-server is the cached build: tests/prebuild.py starts it beside the
+suite when it is missing, and these tests, marked `llama_server`, run last and wait for it."""
 
 from __future__ import annotations
 
@@ -24,16 +25,15 @@ from xicm.plugins.llms.action_grammar import ACTIONS_REGEX
 from xicm.plugins.llms.llamacpp import LlamaCppLLM
 from xicm.plugins.llms.llamacpp_options import LlamaCppOptions
 
+pytestmark = pytest.mark.llama_server
+
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 DEMOS = "".join(f"['instruction': task {i}, {{'cube': [{i}, 2, 3]}}]>[[{i}, 2, 3, 4, 5, 6, 1]], " for i in range(30))
 
 
 @pytest.fixture(scope="session")
 def server_binary() -> Path:
-    try:
-        return llamacpp_server.llama_server_binary(build=False)
-    except ConfigError as exc:
-        pytest.fail(f"{exc} (scripts/test.sh builds it before the tests)")
+    return llamacpp_server.llama_server_binary()  # waits on the build's lock while tests/prebuild.py builds it
 
 
 @pytest.fixture(scope="session")

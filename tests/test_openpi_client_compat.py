@@ -7,19 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from xicm.lerobot.isolated_env import EnvSpec, env_python
+from isolated_envs import openpi_client_python
 from xicm.serving.server import PolicyServer
 from xicm.serving.wire import unpack
 
 pytestmark = [pytest.mark.slow, pytest.mark.venv]
-
-OPENPI_CLIENT = EnvSpec(
-    name="openpi-client",
-    python="python3.11",
-    no_deps=("openpi-client==0.1.2",),
-    requirements=("numpy>=2", "msgpack>=1.0", "websockets>=14", "typing_extensions"),
-    check="from openpi_client.websocket_client_policy import WebsocketClientPolicy",
-)
 
 
 class Echo:
@@ -31,9 +23,7 @@ class Echo:
 
 
 def test_openpis_client_talks_to_our_server_and_its_frames_unpack_here(tmp_path):
-    import os
-
-    python = env_python(OPENPI_CLIENT, os.environ.get("XICM_CACHE", Path.home() / ".cache" / "xicm"))
+    python = openpi_client_python()
     server = PolicyServer(Echo(), port=0, metadata={"action_dim": 8}).start()
     try:
         out = tmp_path / "reply.npz"
@@ -55,9 +45,7 @@ def test_openpis_client_talks_to_our_server_and_its_frames_unpack_here(tmp_path)
 
 
 def test_openpis_client_with_its_api_key_gets_through_a_keyed_server(tmp_path, monkeypatch):
-    import os
-
-    python = env_python(OPENPI_CLIENT, os.environ.get("XICM_CACHE", Path.home() / ".cache" / "xicm"))
+    python = openpi_client_python()
     monkeypatch.setenv("XICM_PROBE_KEY", "probe-key-123")
     server = PolicyServer(Echo(), port=0, metadata={"action_dim": 8}, api_key="probe-key-123").start()
     probe = [str(python), str(Path(__file__).with_name("openpi_client_probe.py")), "127.0.0.1", str(server.port)]

