@@ -322,6 +322,41 @@ def test_sapien_yaml_declares_every_simulator_option_with_its_default():
     assert declared == OmegaConf.to_container(OmegaConf.structured(SapienOptions))
 
 
+def test_llamacpp_yaml_declares_every_llamacpp_option_with_its_default():
+    """As sapien.yaml: LlamaCppOptions is the declaration, the group's base YAML lists it whole."""
+    from omegaconf import OmegaConf
+
+    from xicm.plugins.llms.llamacpp_options import LlamaCppOptions
+
+    declared = OmegaConf.to_container(OmegaConf.load(CONF / "llm" / "llamacpp.yaml"))
+    assert declared.pop("name") == "llamacpp"
+    assert declared == OmegaConf.to_container(OmegaConf.structured(LlamaCppOptions))
+
+
+#: keys the transformers_local confs list only to show them, at the schema's default
+SHOWN_AT_DEFAULT = ("torch_threads", "on_repeated_action")
+
+
+def _transformers_local_confs():
+    from omegaconf import OmegaConf
+
+    return [p for p in sorted((CONF / "llm").glob("*.yaml")) if OmegaConf.load(p).get("name") == "transformers_local"]
+
+
+@pytest.mark.parametrize("path", _transformers_local_confs(), ids=lambda p: p.stem)
+def test_transformers_local_confs_take_only_its_options_and_show_defaults_unchanged(path):
+    """Each transformers_local conf sets options of TransformersLocalOptions only, and the keys it
+    lists to show them (SHOWN_AT_DEFAULT) hold the schema's defaults, so the two cannot drift."""
+    from omegaconf import OmegaConf
+
+    from xicm.plugins.llms.transformers_local_options import TransformersLocalOptions
+
+    conf = OmegaConf.to_container(OmegaConf.load(path))
+    schema = OmegaConf.to_container(OmegaConf.structured(TransformersLocalOptions))
+    assert set(conf) - {"name"} <= set(schema), sorted(set(conf) - {"name"} - set(schema))
+    assert {k: conf[k] for k in SHOWN_AT_DEFAULT} == {k: schema[k] for k in SHOWN_AT_DEFAULT}
+
+
 def test_a_replaced_simulator_option_names_the_key_that_replaced_it():
     cfg = _compose(["+simulator.sample_variations=false"])
     with pytest.raises(ConfigError, match=r"^simulator.sample_variations is no longer an option of simulator 'sapien'; "
