@@ -4,10 +4,10 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from xicm.lerobot.isolated_env import EnvSpec, env_python
+from xicm.plugins.llms.model_files import cache_root
 
 OPENPI_CLIENT = EnvSpec(
     name="openpi-client",
@@ -18,12 +18,8 @@ OPENPI_CLIENT = EnvSpec(
 )
 
 
-def cache() -> Path:
-    return Path(os.environ.get("XICM_CACHE", Path.home() / ".cache" / "xicm")).expanduser()
-
-
 def openpi_client_python() -> Path:
-    return env_python(OPENPI_CLIENT, cache())
+    return env_python(OPENPI_CLIENT, cache_root())
 
 
 def build_all() -> None:
@@ -31,4 +27,4 @@ def build_all() -> None:
     from xicm.lerobot.env import env_python as lerobot_python
 
     print(openpi_client_python(), flush=True)
-    print(lerobot_python(cache()), flush=True)
+    print(lerobot_python(cache_root()), flush=True)

@@ -20,6 +20,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from xicm.plugins.llms.model_files import cache_root
+
 #: marker -> the Python that builds what its tests wait for (run with tests/ as the working folder)
 BUILDS = {
     "llama_server": "from xicm.plugins.llms.llamacpp_server import llama_server_binary; print(llama_server_binary())",
@@ -32,15 +34,11 @@ def waits_for_a_build(item) -> bool:
     return any(item.get_closest_marker(marker) for marker in BUILDS)
 
 
-def log_folder() -> Path:
-    return Path(os.environ.get("XICM_CACHE", Path.home() / ".cache" / "xicm")).expanduser()
-
-
 def pytest_collection_finish(session):
     if session.config.option.collectonly:
         return
     needed = [marker for marker in BUILDS if any(item.get_closest_marker(marker) for item in session.items)]
-    folder = log_folder()
+    folder = cache_root()
     folder.mkdir(parents=True, exist_ok=True)
     for marker in needed:
         worker = os.environ.get("PYTEST_XDIST_WORKER", "")
