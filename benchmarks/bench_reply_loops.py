@@ -8,6 +8,8 @@ prompts of real episodes, first calls and re-asks alike.
 
     .venv/bin/python benchmarks/bench_reply_loops.py RUN_DIR --llm qwen2_5_coder_0_5b --calls 20 \
         --settings "paper:repeat_penalty=1.05,repeat_last_n=-1" "no_penalty:repeat_penalty=1.0"
+    .venv/bin/python benchmarks/bench_reply_loops.py RUN_DIR --per-task 1 --calls 23 --out replies.json ...
+    .venv/bin/python benchmarks/bench_reply_loops.py replies.json --table     # the table again, from the file
 """
 
 from __future__ import annotations
@@ -25,11 +27,15 @@ ROOT = Path(__file__).resolve().parents[1]
 ACTION = re.compile(r"\[\d+, \d+, \d+, \d+, \d+, \d+, [01]\]")
 
 
-def recorded_prompts(run_dir: Path, limit: int) -> list[list[dict]]:
-    """The first `limit` prompts of the run's transcripts, in file order (task, seed, episode)."""
+def recorded_prompts(run_dir: Path, limit: int, per_task: int = 0) -> list[list[dict]]:
+    """The first `limit` prompts of the run's transcripts, in file order (task, seed, episode);
+    with per_task > 0, only the first call of the first `per_task` episodes of each task (an
+    LLM-free run such as nearest_demo records that call for every task)."""
     prompts = []
-    for path in sorted((run_dir / "transcripts").glob("*/*.json")):
-        prompts += [call["messages"] for call in json.loads(path.read_text())["calls"]]
+    for task_dir in sorted((run_dir / "transcripts").iterdir()):
+        for path in sorted(task_dir.glob("*.json"))[: per_task or None]:
+            calls = json.loads(path.read_text())["calls"]
+            prompts += [call["messages"] for call in (calls[:1] if per_task else calls)]
         if len(prompts) >= limit:
             break
     return prompts[:limit]
@@ -54,13 +60,32 @@ def reply_figures(reply: str) -> dict:
             "distinct": len(set(actions))}
 
 
+def print_table(figures: dict[str, list[dict]]) -> None:
+    first = next(iter(figures))
+    print("\nsetting        same reply as " + first + "  closed  cut-at-budget  run>=4  median actions  median longest run  median distinct  median s/call  median tokens")
+    for name, rows in figures.items():
+        closed = sum(r["closed"] for r in rows)
+        same = sum(r["reply"] == f["reply"] for r, f in zip(rows, figures[first]))
+        print(f"{name:14s} {same:3d}/{len(rows)}  {closed:3d}/{len(rows)}  {len(rows) - closed:3d}/{len(rows)}  "
+              f"{sum(r['longest_run'] >= 4 for r in rows):3d}/{len(rows)}  "
+              f"{statistics.median(r['actions'] for r in rows):14.0f}  {statistics.median(r['longest_run'] for r in rows):18.0f}  "
+              f"{statistics.median(r['distinct'] for r in rows):15.0f}  {statistics.median(r['s'] for r in rows):13.1f}  "
+              f"{statistics.median(r['tokens'] for r in rows):13.0f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("run_dir", type=Path)
     parser.add_argument("--llm", default="qwen2_5_coder_0_5b", help="an alias in conf/llm/ on the llamacpp engine")
     parser.add_argument("--calls", type=int, default=20)
+    parser.add_argument("--per-task", type=int, default=0, help="first calls of this many episodes per task (0: every call)")
     parser.add_argument("--settings", nargs="+", default=["paper:", "no_penalty:repeat_penalty=1.0,repeat_last_n=64"])
+    parser.add_argument("--out", type=Path, help="also write every reply and its figures to this JSON file")
+    parser.add_argument("--table", action="store_true", help="print the table of an --out file given as run_dir, and stop")
     args = parser.parse_args()
+    if args.table:
+        print_table(json.loads(args.run_dir.read_text())["replies"])
+        return
 
     from bench_llm_stage import llm_options
     from xicm.plugins.llms.llamacpp import LlamaCppLLM
@@ -68,7 +93,7 @@ def main() -> None:
 
     conf = llm_options(args.llm)
     settings = [parse_setting(s) for s in args.settings]
-    prompts = recorded_prompts(args.run_dir, args.calls)
+    prompts = recorded_prompts(args.run_dir, args.calls, args.per_task)
     llms = {name: LlamaCppLLM(LlamaCppOptions(**{**conf, **options})) for name, options in settings}
     for llm in llms.values():
         llm.start()
@@ -84,15 +109,10 @@ def main() -> None:
         print(f"{i}: " + "  ".join(f"{n} {f[-1]['actions']}a run{f[-1]['longest_run']} "
                                     f"{'closed' if f[-1]['closed'] else 'CUT'} {f[-1]['s']:.1f}s" for n, f in figures.items()),
               flush=True)
-    first = next(iter(figures))
-    print("\nsetting        same reply as " + first + "  closed  cut-at-budget  median actions  median longest run  median distinct  median s/call  median tokens")
-    for name, rows in figures.items():
-        closed = sum(r["closed"] for r in rows)
-        same = sum(r["reply"] == f["reply"] for r, f in zip(rows, figures[first]))
-        print(f"{name:14s} {same:3d}/{len(rows)}  {closed:3d}/{len(rows)}  {len(rows) - closed:3d}/{len(rows)}  "
-              f"{statistics.median(r['actions'] for r in rows):14.0f}  {statistics.median(r['longest_run'] for r in rows):18.0f}  "
-              f"{statistics.median(r['distinct'] for r in rows):15.0f}  {statistics.median(r['s'] for r in rows):13.1f}  "
-              f"{statistics.median(r['tokens'] for r in rows):13.0f}")
+    print_table(figures)
+    if args.out:
+        args.out.write_text(json.dumps({"run_dir": str(args.run_dir), "llm": args.llm, "settings": dict(settings),
+                                        "replies": figures}, indent=1))
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ import pytest
 from tiny_gguf import write_tiny_gguf
 from xicm.core.errors import ConfigError, LLMError
 from xicm.core.parsing import parse_actions
+from xicm.core.schema import check_options
 from xicm.plugins.llms import llamacpp_server
 from xicm.plugins.llms.action_grammar import ACTIONS_REGEX
 from xicm.plugins.llms.llamacpp import LlamaCppLLM
@@ -122,6 +123,14 @@ def test_speculative_decoding_leaves_the_replies_as_they_are(make_llm):
     assert plain._server is not drafted._server and "--spec-type" in drafted._server.argv(0)
 
 
+def test_the_dry_sampler_reaches_the_server(make_llm):
+    query = messages("['instruction': go, {'cube': [9, 9, 9]}]>")
+    plain = make_llm(max_tokens=60).complete_messages(query)
+    dry = make_llm(max_tokens=60, dry_multiplier=5.0, dry_base=2.0, dry_allowed_length=1).complete_messages(query)
+    assert dry.lstrip().startswith("[[") and plain.lstrip().startswith("[["), (plain, dry)
+    assert dry != plain  # the same greedy decoding, but tokens that repeat the context lose logits
+
+
 def test_stop_ends_the_server_and_frees_its_port(make_llm):
     llm = make_llm(max_tokens=8)
     llm.complete_messages(messages(">"))
@@ -190,6 +199,16 @@ def test_identity_names_model_and_decoding():
     for part in ('"model": "qwen2_5_coder_0_5b"', '"repeat_last_n": -1', '"grammar": "actions"', '"seed": 0'):
         assert part in identity
     assert llm.deterministic
+
+
+def test_dry_is_in_the_identity_and_the_request_only_when_it_is_on():
+    off = LlamaCppLLM(LlamaCppOptions(model="qwen2_5_coder_0_5b", ctx_size=4096))
+    on = LlamaCppLLM(LlamaCppOptions(model="qwen2_5_coder_0_5b", ctx_size=4096, dry_multiplier=0.8, dry_allowed_length=12))
+    assert "dry" not in off.identity() and not any(k.startswith("dry") for k in off._request)  # cached replies stay valid
+    assert '"dry_multiplier": 0.8' in on.identity() and '"dry_allowed_length": 12' in on.identity()
+    assert on._request["dry_penalty_last_n"] == 4096  # -1 (the whole context) in the server's terms
+    with pytest.raises(ConfigError, match="llm.dry_base"):
+        check_options({"model": "x", "dry_base": 0.5}, LlamaCppOptions, "llm", "llm 'llamacpp'")
 
 
 def test_stop_at_action_list_is_in_the_identity_only_when_it_cuts():

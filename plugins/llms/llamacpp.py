@@ -24,6 +24,11 @@ temperature (0.0), top_p (1.0), top_k (40), repeat_penalty (1.0), repeat_last_n 
     llama.cpp's sampling settings; temperature 0 is greedy. repeat_last_n -1 penalises every
     token of the context, as transformers' repetition_penalty does (the paper's 1.05). A fixed
     seed makes sampled replies repeat too, so every config is cached (llm_cache).
+dry_multiplier (0.0), dry_base (1.75), dry_allowed_length (2), dry_penalty_last_n (-1)
+    llama.cpp's DRY sampler: a token that would extend a sequence already seen in the last
+    dry_penalty_last_n tokens (-1: the whole context; llama-server counts the prompt too) by more
+    than dry_allowed_length tokens loses dry_multiplier * dry_base ** (length - allowed) of its
+    logit. 0 turns it off, as the paper has it; on, it is part of identity().
 stop (None)
     Strings that end a reply (e.g. a newline for a base model continuing a one-line prompt).
 grammar ("actions")
@@ -80,9 +85,13 @@ class LlamaCppLLM(LLM):
         self.sampling = {"temperature": float(o.temperature), "top_p": float(o.top_p), "top_k": o.top_k,
                          "repeat_penalty": float(o.repeat_penalty), "repeat_last_n": o.repeat_last_n,
                          "seed": o.seed}
+        if o.dry_multiplier > 0:  # off: identity() and the request stay as before the option existed
+            self.sampling.update(dry_multiplier=float(o.dry_multiplier), dry_base=float(o.dry_base),
+                                 dry_allowed_length=o.dry_allowed_length, dry_penalty_last_n=o.dry_penalty_last_n)
         self._request = dict(self.sampling)
-        if o.repeat_last_n == -1:  # the server's field takes no -1 (its CLI does): the whole context
-            self._request["repeat_last_n"] = self.ctx_size
+        for key in ("repeat_last_n", "dry_penalty_last_n"):  # the server's fields take no -1 (its CLI does)
+            if self._request.get(key) == -1:
+                self._request[key] = self.ctx_size
         if o.stop:
             self._request["stop"] = [str(s) for s in o.stop]
             self.sampling["stop"] = [str(s) for s in o.stop]

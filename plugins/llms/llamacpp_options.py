@@ -21,6 +21,10 @@ class LlamaCppOptions:
     top_k: int = field(default=40, metadata=at_least(0))
     repeat_penalty: float = field(default=1.0, metadata=above(0))
     repeat_last_n: int = field(default=64, metadata=at_least(-1))
+    dry_multiplier: float = field(default=0.0, metadata=at_least(0))  # 0: DRY off (the paper has none)
+    dry_base: float = field(default=1.75, metadata=at_least(1))
+    dry_allowed_length: int = field(default=2, metadata=at_least(0))
+    dry_penalty_last_n: int = field(default=-1, metadata=at_least(-1))
     max_tokens: int = field(default=256, metadata=at_least(1))
     seed: int = field(default=0, metadata=at_least(0))
     stop: Optional[List[str]] = None
