@@ -22,7 +22,8 @@ import json
 import re
 from pathlib import Path
 
-ACTION = re.compile(r"\[\d+, \d+, \d+, \d+, \d+, \d+, [01]\]")
+from bench_reply_loops import ACTION  # one action of the reply format, as the loop study reads it
+
 DEMO_ACTIONS = re.compile(r"\]>(\[\[.*?\]\])")  # each demo's list follows its observation's "]>"
 OBJECTS = re.compile(r"\{[^{}]*\}")
 
@@ -35,14 +36,16 @@ def sort_reply(prompt: str, reply: str, near: int) -> list[str]:
         return []
     labels = []
     equal = [i for i, demo in enumerate(demos) if demo == actions]
-    copied = sum(a in {d for demo in demos for d in demo} for a in actions)
+    demo_actions = {a for demo in demos for a in demo}
+    copied = sum(a in demo_actions for a in actions)
     if equal:
         labels.append(f"equals demo {equal[0] + 1} of {len(demos)}")
     elif copied == len(actions):
         labels.append("all copied")
     else:
         labels.append("some copied" if copied else "none copied")
-    query_objects = _objects(OBJECTS.findall(prompt)[-1]) if OBJECTS.findall(prompt) else []
+    observations = OBJECTS.findall(prompt)
+    query_objects = _objects(observations[-1]) if observations else []
     xy = [tuple(ast.literal_eval(a)[:2]) for a in actions]
     if any(abs(x - ox) <= near and abs(y - oy) <= near for x, y in xy for ox, oy, *_ in query_objects):
         labels.append("at a query object")

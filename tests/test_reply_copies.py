@@ -28,6 +28,7 @@ def _run(tmp_path, replies):
 
 
 def _main(monkeypatch, capsys, *args):
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))  # as `python benchmarks/reply_copies.py` has it
     monkeypatch.setattr(sys, "argv", ["reply_copies.py", *map(str, args)])
     runpy.run_path(SCRIPT, run_name="__main__")
     lines = capsys.readouterr().out.splitlines()
@@ -49,6 +50,7 @@ def test_replies_are_sorted_by_what_they_copy_and_whether_they_reach_the_query(t
 
 
 def test_a_folder_without_transcripts_is_refused_with_one_sentence(tmp_path, monkeypatch, capsys):
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     monkeypatch.setattr(sys, "argv", ["reply_copies.py", str(tmp_path)])
     with pytest.raises(SystemExit) as done:
         runpy.run_path(SCRIPT, run_name="__main__")
