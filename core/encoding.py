@@ -76,14 +76,57 @@ def quantise(action: KeyAction, workspace: Box) -> KeyAction:
     return ints_to_action(action_to_ints(action, workspace), workspace)
 
 
+# ---------------------------------------------------------------- anchored actions
+# The form `prompt.actions: anchored` writes: each action relative to one of the observation's
+# objects, [object, dx, dy, dz, roll, pitch, yaw, gripper_open], where object is the index (0 first)
+# of an object in the order the observation lists them and dx, dy, dz the voxel offset from that
+# object's voxel. A reply copied from a demo is then the demo's motion moved onto the query's objects.
+# An observation that lists no objects anchors on the grid's origin (voxel [0, 0, 0]): object 0.
+ANCHORED_ITEMS = 8
+
+
+def _anchors_or_origin(anchors: Sequence[Sequence[float]], workspace: Box) -> Sequence[Sequence[float]]:
+    return anchors if len(anchors) else [workspace[0]]
+
+
+def nearest_anchor(position: Sequence[float], anchors: Sequence[Sequence[float]]) -> int:
+    """Index of the anchor nearest to a point (Euclidean, metres; the first one on a tie)."""
+    distances = [float(np.linalg.norm(np.asarray(position, float) - np.asarray(a, float))) for a in anchors]
+    return int(np.argmin(distances))
+
+
+def action_to_anchored_ints(action: KeyAction, anchors: Sequence[Sequence[float]], workspace: Box) -> list[int]:
+    """[object, dx, dy, dz, roll, pitch, yaw, gripper_open], anchored on the nearest anchor."""
+    anchors = _anchors_or_origin(anchors, workspace)
+    index = nearest_anchor(action.position, anchors)
+    voxel, anchor = position_to_voxel(action.position, workspace), position_to_voxel(anchors[index], workspace)
+    return [index, *(v - a for v, a in zip(voxel, anchor)), *quat_to_bins(action.quat_wxyz), int(action.gripper_open)]
+
+
+def anchored_to_absolute_ints(values: Sequence[int], anchors: Sequence[Sequence[float]], workspace: Box) -> list[int]:
+    """The 7 absolute integers of an anchored action: the object's voxel plus the offset. An object
+    index past the anchors wraps (modulo), the rule `nearest_demo` uses when the query lists fewer
+    objects than the demo; the voxel may fall off the grid (the caller range-checks it)."""
+    if len(values) != ANCHORED_ITEMS:
+        raise ValueError(f"an anchored action has {ANCHORED_ITEMS} integers, got {len(values)}")
+    anchors = _anchors_or_origin(anchors, workspace)
+    if values[0] < 0:
+        raise ValueError(f"object index {values[0]} is negative")
+    anchor = position_to_voxel(anchors[values[0] % len(anchors)], workspace)
+    return [*(a + d for a, d in zip(anchor, values[1:4])), *values[4:8]]
+
+
 # ---------------------------------------------------------------- text
 def format_ints(values: Sequence[int]) -> str:
     return "[" + ", ".join(str(int(v)) for v in values) + "]"
 
 
-def format_actions(actions: Sequence[KeyAction], workspace: Box) -> str:
-    """'[[x, y, z, r, p, y, g], ...]'"""
-    return "[" + ", ".join(format_ints(action_to_ints(a, workspace)) for a in actions) + "]"
+def format_actions(actions: Sequence[KeyAction], workspace: Box, anchors: Sequence[Sequence[float]] | None = None) -> str:
+    """'[[x, y, z, r, p, y, g], ...]', or with anchors (metres, in the order the observation lists
+    its objects) '[[object, dx, dy, dz, r, p, y, g], ...]' (see "anchored actions")."""
+    if anchors is None:
+        return "[" + ", ".join(format_ints(action_to_ints(a, workspace)) for a in actions) + "]"
+    return "[" + ", ".join(format_ints(action_to_anchored_ints(a, anchors, workspace)) for a in actions) + "]"
 
 
 def format_objects(objects: dict[str, Sequence[float]], workspace: Box) -> str:

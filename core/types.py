@@ -188,6 +188,9 @@ class Prompt:
     demos: list[Demo]
     query: Query
     workspace: tuple[tuple[float, float, float], tuple[float, float, float]]
+    # The query's objects (metres) in the order the prompt lists them, when the prompt writes actions
+    # anchored on objects (xicm.core.encoding, "anchored actions"); None: absolute 7-integer actions.
+    anchors: tuple[tuple[float, float, float], ...] | None = None
 
 
 @dataclass

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from xicm.core.errors import ConfigError
 from xicm.core.parsing import parse_action_ints, parse_actions
-from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX
+from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX, ANCHORED_GBNF, ANCHORED_REGEX
 
 pytest.importorskip("llguidance")
 
@@ -37,6 +37,21 @@ REJECTED = [
     "Sure: [[0, 0, 0, 0, 0, 0, 1]]",  # no prose
     "  [[0, 0, 0, 0, 0, 0, 1]]",  # one leading space at most
 ]
+# anchored actions (prompt.actions: anchored): [object, dx, dy, dz, roll, pitch, yaw, gripper]
+ANCHORED_ACCEPTED = [
+    "[[0, 0, 0, 5, 36, 36, 36, 1]]",
+    " [[9, -99, 99, -1, 0, 71, 36, 0], [1, 12, -7, 0, 5, 5, 5, 1]]",
+    "[" + ", ".join(["[2, -3, 4, 10, 36, 36, 36, 0]"] * 26) + "]",
+]
+ANCHORED_REJECTED = [
+    "[[0, 0, 0, 0, 0, 0, 1]]",  # 7 integers: the absolute form
+    "[[10, 0, 0, 0, 0, 0, 0, 1]]",  # object 0-9
+    "[[0, -100, 0, 0, 0, 0, 0, 1]]",  # offsets -99 to 99
+    "[[0, -01, 0, 0, 0, 0, 0, 1]]",  # no leading zeros
+    "[[0, +1, 0, 0, 0, 0, 0, 1]]",  # no plus sign
+    "[[0, 0, 0, 0, -1, 0, 0, 1]]",  # rotations are not offsets
+    "[" + ", ".join(["[2, -3, 4, 10, 36, 36, 36, 0]"] * 27) + "]",
+]
 
 
 @pytest.mark.parametrize("text", ACCEPTED)
@@ -53,7 +68,21 @@ def test_the_grammar_rejects_anything_else(text):
     assert re.fullmatch(ACTIONS_REGEX, text) is None
 
 
-def _char_matcher(grammar_kind: str):
+@pytest.mark.parametrize("text", ANCHORED_ACCEPTED)
+def test_every_anchored_grammar_reply_parses_to_all_its_actions(text):
+    assert re.fullmatch(ANCHORED_REGEX, text)
+    anchors = [(0.2, 0.0, 1.1), (0.0, 0.1, 1.0)]
+    parsed = parse_actions(text, WS, partial=True, anchors=anchors)  # an offset may leave the grid: partial
+    assert isinstance(parsed, list) or "once anchored" in parsed.reason
+    assert len(parse_action_ints(text, size=8)) == text.count("[") - 1
+
+
+@pytest.mark.parametrize("text", ANCHORED_REJECTED)
+def test_the_anchored_grammar_rejects_anything_else(text):
+    assert re.fullmatch(ANCHORED_REGEX, text) is None
+
+
+def _char_matcher(grammar_kind: str, regex: str = ACTIONS_REGEX, gbnf: str = ACTIONS_GBNF):
     """An llguidance matcher over a character tokenizer, for the regex or the GBNF."""
     import llguidance
     from llguidance.gbnf_to_lark import gbnf_to_lark
@@ -64,17 +93,20 @@ def _char_matcher(grammar_kind: str):
     wrapper = llguidance.TokenizerWrapper(_TokenTexts(tokenizer, len(tokenizer)))
     lltok = llguidance.LLTokenizer(wrapper, n_vocab=len(tokenizer))
     if grammar_kind == "regex":
-        grammar = llguidance.LLMatcher.grammar_from_regex(ACTIONS_REGEX)
+        grammar = llguidance.LLMatcher.grammar_from_regex(regex)
     else:
-        grammar = llguidance.LLMatcher.grammar_from_lark(gbnf_to_lark(ACTIONS_GBNF))
+        grammar = llguidance.LLMatcher.grammar_from_lark(gbnf_to_lark(gbnf))
     return tokenizer, lambda: llguidance.LLMatcher(lltok, grammar)
 
 
 @pytest.mark.parametrize("kind", ["regex", "gbnf"])
-def test_llguidance_accepts_exactly_the_regex_language(kind):
+@pytest.mark.parametrize("form", ["absolute", "anchored"])
+def test_llguidance_accepts_exactly_the_regex_language(kind, form):
     """The GBNF sent to llama.cpp servers and the regex enforced in-process describe one language."""
-    tokenizer, new = _char_matcher(kind)
-    for text, expected in [(t, True) for t in ACCEPTED] + [(t, False) for t in REJECTED]:
+    anchored = form == "anchored"
+    tokenizer, new = _char_matcher(kind, *((ANCHORED_REGEX, ANCHORED_GBNF) if anchored else (ACTIONS_REGEX, ACTIONS_GBNF)))
+    accepted, rejected = (ANCHORED_ACCEPTED, ANCHORED_REJECTED + ACCEPTED) if anchored else (ACCEPTED, REJECTED + ANCHORED_ACCEPTED)
+    for text, expected in [(t, True) for t in accepted] + [(t, False) for t in rejected]:
         matcher = new()
         assert not matcher.is_error(), matcher.get_error()
         ids = tokenizer(text, add_special_tokens=False)["input_ids"]
@@ -184,6 +216,16 @@ def test_grammar_in_batches_and_sampling(tiny_gemma_dir):
     sampled = tiny(tiny_gemma_dir, do_sample=True, temperature=1.0, top_p=1.0, seed=5)
     replies = [sampled.complete_messages(m) for m in CALLS]
     assert all(re.fullmatch(ACTIONS_REGEX, r) for r in replies), replies
+
+
+def test_transformers_grammar_refuses_anchored_prompts_with_one_sentence(tiny_gemma_dir):
+    from test_llm_fast_path import CALLS
+    from xicm.core.types import Prompt, Query
+
+    prompt = Prompt(messages=CALLS[0], demos=[], query=Query("t", "i", {}), workspace=WS, anchors=((0.1, 0.0, 1.0),))
+    with pytest.raises(ConfigError, match="absolute actions only: with prompt.actions=anchored set llm.grammar=none"):
+        tiny(tiny_gemma_dir).complete(prompt)
+    assert tiny(tiny_gemma_dir, grammar="none").complete(prompt)  # free decoding: any form
 
 
 def test_grammar_option_identity_and_errors(tiny_gemma_dir):

@@ -22,7 +22,7 @@ from xicm.core.errors import ConfigError, LLMError
 from xicm.core.parsing import parse_actions
 from xicm.core.schema import check_options
 from xicm.plugins.llms import llamacpp_server
-from xicm.plugins.llms.action_grammar import ACTIONS_REGEX
+from xicm.plugins.llms.action_grammar import ACTIONS_REGEX, ANCHORED_REGEX
 from xicm.plugins.llms.llamacpp import LlamaCppLLM
 from xicm.plugins.llms.llamacpp_options import LlamaCppOptions
 
@@ -82,6 +82,14 @@ def test_the_grammar_holds_replies_to_the_action_list(make_llm):
     assert re.fullmatch(ACTIONS_REGEX, reply), reply
     assert len(parse_actions(reply, WS)) >= 1
     assert not re.fullmatch(ACTIONS_REGEX, free.complete_messages(messages(query)))  # random weights: noise
+
+
+def test_a_prompt_with_anchored_actions_gets_the_anchored_grammar(make_llm):
+    constrained = make_llm(grammar="actions")
+    query = "['instruction': lift it, {'cube': [9, 9, 9]}]>"
+    reply = constrained.complete_messages(messages(query), anchored=True)
+    assert re.fullmatch(ANCHORED_REGEX, reply), reply
+    assert not re.fullmatch(ACTIONS_REGEX, reply)
 
 
 def test_the_model_chat_template_is_applied(make_llm):

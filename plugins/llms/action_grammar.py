@@ -9,6 +9,10 @@ actions, and nothing else can be generated.
 
 `ACTIONS_REGEX` is the form llguidance (in-process), vLLM and SGLang take; `ACTIONS_GBNF` the
 llama.cpp server's. Both are built here from the same pieces and tested against each other.
+
+A prompt that writes anchored actions (`prompt.actions: anchored`, `Prompt.anchors`) gets replies of
+``[object, dx, dy, dz, roll, pitch, yaw, gripper]`` instead: object 0-9, offsets -99 to 99, the
+rest as above (`ANCHORED_REGEX`, `ANCHORED_GBNF`; `reply_regex` / `reply_gbnf` pick by prompt).
 """
 
 from __future__ import annotations
@@ -20,10 +24,19 @@ GRAMMARS = ("none", "actions")
 _POSITION = "(?:[0-9]|[1-9][0-9])"  # 0-99
 _ROTATION = "(?:[0-9]|[1-6][0-9]|7[01])"  # 0-71
 _GRIPPER = "[01]"
+_OBJECT = "[0-9]"
+_OFFSET = "-?" + _POSITION  # -99 to 99
 _ACTION = r"\[" + ", ".join([_POSITION] * 3 + [_ROTATION] * 3 + [_GRIPPER]) + r"\]"
+_ANCHORED = r"\[" + ", ".join([_OBJECT] + [_OFFSET] * 3 + [_ROTATION] * 3 + [_GRIPPER]) + r"\]"
+
+
+def _list_regex(action: str) -> str:
+    return r" ?\[" + action + r"(?:, " + action + "){0," + str(MAX_ACTIONS - 1) + r"}\]"
+
 
 #: the reply as a regular expression (Python / Rust regex syntax, no anchors: the whole reply matches)
-ACTIONS_REGEX = r" ?\[" + _ACTION + r"(?:, " + _ACTION + "){0," + str(MAX_ACTIONS - 1) + r"}\]"
+ACTIONS_REGEX = _list_regex(_ACTION)
+ANCHORED_REGEX = _list_regex(_ANCHORED)
 
 #: the same language in llama.cpp's GBNF (grammars/README.md of llama.cpp)
 ACTIONS_GBNF = "\n".join(
@@ -35,6 +48,27 @@ ACTIONS_GBNF = "\n".join(
         "grip ::= [01]",
     ]
 )
+ANCHORED_GBNF = "\n".join(
+    [
+        f'root ::= " "? "[" action (", " action){{0,{MAX_ACTIONS - 1}}} "]"',
+        'action ::= "[" obj ", " off ", " off ", " off ", " rot ", " rot ", " rot ", " grip "]"',
+        "obj ::= [0-9]",
+        'off ::= "-"? pos',
+        "pos ::= [0-9] | [1-9] [0-9]",
+        "rot ::= [0-9] | [1-6] [0-9] | \"7\" [01]",
+        "grip ::= [01]",
+    ]
+)
+
+
+def reply_regex(anchored: bool) -> str:
+    """The reply's regex for a prompt with absolute (False) or anchored (True) actions."""
+    return ANCHORED_REGEX if anchored else ACTIONS_REGEX
+
+
+def reply_gbnf(anchored: bool) -> str:
+    """The reply's GBNF for a prompt with absolute (False) or anchored (True) actions."""
+    return ANCHORED_GBNF if anchored else ACTIONS_GBNF
 
 
 def check_grammar(value: str) -> str:

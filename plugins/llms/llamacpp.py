@@ -33,7 +33,8 @@ stop (None)
     Strings that end a reply (e.g. a newline for a base model continuing a one-line prompt).
 grammar ("actions")
     ``actions``: replies are constrained to the action list (action_grammar.ACTIONS_GBNF, llama.cpp's
-    own GBNF sampler); ``none``: free decoding (the paper presets).
+    own GBNF sampler; ANCHORED_GBNF for a prompt with anchored actions); ``none``: free decoding (the
+    paper presets).
 stop_at_action_list (false)
     true: the reply is cut after its first action list (stopping.first_list_only), as
     transformers_local's option cuts it; false: the whole reply, later lists included (X-ICM).
@@ -158,14 +159,15 @@ class LlamaCppLLM(LLM):
         return True
 
     def complete(self, prompt: Prompt) -> str:
-        return self.complete_messages(prompt.messages)
+        return self.complete_messages(prompt.messages, anchored=prompt.anchors is not None)
 
-    def complete_messages(self, messages: list[dict[str, str]]) -> str:
+    def complete_messages(self, messages: list[dict[str, str]], anchored: bool = False) -> str:
+        """The reply; `anchored`: the prompt writes anchored actions, so the grammar is theirs."""
         if self._server is not None and not self._server.running():
             print(f"[xicm] llama-server exited ({self._server.log_tail()}); starting it again", file=sys.stderr)
         self.start()
         try:
-            text = self._client.complete_messages(messages)
+            text = self._client.complete_messages(messages, anchored)
         except LLMError as exc:
             if any(marker in str(exc) for marker in CONTEXT_ERRORS):
                 raise LLMError(self._context_sentence(str(exc))) from None

@@ -1,7 +1,8 @@
 """`nearest_demo`: an LLM-free baseline that replays the best demo re-anchored on the query's objects.
 
-It answers with the same text an LLM would (`xicm.core.encoding.format_actions`), so its
-reply goes through the same parser and executor as a model's.
+It answers with the same text an LLM would (`xicm.core.encoding.format_actions`, in the prompt's
+action form: absolute, or anchored on `Prompt.anchors`), so its reply goes through the same parser
+and executor as a model's.
 
 The rule, for the demo at rank ``demo_rank`` of Prompt.demos (default 0, the best one):
 
@@ -87,7 +88,7 @@ class NearestDemoLLM(LLM):
         if self.demo_rank >= len(prompt.demos):
             return "[]"
         demo = prompt.demos[self.demo_rank]
-        return format_actions(reanchor(demo, prompt.query), prompt.workspace)
+        return format_actions(reanchor(demo, prompt.query), prompt.workspace, prompt.anchors)  # in the prompt's form
 
     def identity(self) -> str:
         return json.dumps({"llm": "nearest_demo", "demo_rank": self.demo_rank}, sort_keys=True)

@@ -67,7 +67,7 @@ from xicm.core.errors import ConfigError, LLMError
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import LLM
 from xicm.core.types import Prompt
-from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX, check_grammar
+from xicm.plugins.llms.action_grammar import check_grammar, reply_gbnf, reply_regex
 from xicm.plugins.llms.stopping import first_list_only
 from xicm.plugins.llms.openai_compatible_options import SERVERS, OpenAICompatibleOptions
 from xicm.plugins.llms.rendering import render_plain, render_raw
@@ -137,8 +137,9 @@ class OpenAICompatibleLLM(LLM):
             self.top_p is not None and self.top_p <= 0.001
         )
 
-    def request(self, messages: list[dict[str, str]]) -> dict[str, Any]:
-        """The keyword arguments of the openai create() call; `extra` goes into the body as is."""
+    def request(self, messages: list[dict[str, str]], anchored: bool = False) -> dict[str, Any]:
+        """The keyword arguments of the openai create() call; `extra` goes into the body as is.
+        `anchored`: the prompt writes anchored actions (Prompt.anchors), so the grammar is theirs."""
         request: dict[str, Any] = {"model": self.model, "stream": False}
         if self.mode == "chat":
             request["messages"] = [{"role": m["role"], "content": m["content"]} for m in messages]
@@ -149,16 +150,16 @@ class OpenAICompatibleLLM(LLM):
             value = getattr(self, key)
             if value is not None:
                 request[key] = value
-        return {**request, "extra_body": {**self.grammar_fields(), **self.extra}, "extra_headers": self._no_auth}
+        return {**request, "extra_body": {**self.grammar_fields(anchored), **self.extra}, "extra_headers": self._no_auth}
 
-    def grammar_fields(self) -> dict[str, Any]:
+    def grammar_fields(self, anchored: bool = False) -> dict[str, Any]:
         """The body fields that ask `server` for the action grammar (none when grammar is none)."""
         if self.grammar == "none" or self.server == "none":
             return {}
         return {
-            "vllm": {"structured_outputs": {"regex": ACTIONS_REGEX}},
-            "sglang": {"regex": ACTIONS_REGEX},
-            "llamacpp": {"grammar": ACTIONS_GBNF},
+            "vllm": {"structured_outputs": {"regex": reply_regex(anchored)}},
+            "sglang": {"regex": reply_regex(anchored)},
+            "llamacpp": {"grammar": reply_gbnf(anchored)},
         }[self.server]
 
     def _grammar_hint(self, exc) -> str:
@@ -171,7 +172,7 @@ class OpenAICompatibleLLM(LLM):
         return ""
 
     def complete(self, prompt: Prompt) -> str:
-        return self.complete_messages(prompt.messages)
+        return self.complete_messages(prompt.messages, anchored=prompt.anchors is not None)
 
     def check_ready(self) -> None:
         """Ask the server once for its model list (GET {base_url}/models, no retries): a server
@@ -194,13 +195,13 @@ class OpenAICompatibleLLM(LLM):
             shown = ", ".join(served[:10]) + (" ..." if len(served) > 10 else "")
             raise ConfigError(f"llm.model '{self.model}' is not served at {self.base_url}; it serves: {shown}")
 
-    def complete_messages(self, messages: list[dict[str, str]]) -> str:
-        """Reply to raw chat messages (the client retries transient failures)."""
+    def complete_messages(self, messages: list[dict[str, str]], anchored: bool = False) -> str:
+        """Reply to raw chat messages (the client retries transient failures); `anchored` as in request()."""
         openai = self._openai
         endpoint = self._client.chat.completions if self.mode == "chat" else self._client.completions
         self.attempts_made = 0
         try:
-            reply = endpoint.create(**self.request(messages))
+            reply = endpoint.create(**self.request(messages, anchored))
         except openai.APITimeoutError:
             reason = f"no reply within timeout_s={self.timeout_s:g}"
         except openai.APIConnectionError as exc:

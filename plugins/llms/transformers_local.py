@@ -77,7 +77,14 @@ class TransformersLocalLLM(LLM):
         return self.generator.last_call
 
     def complete(self, prompt: Prompt) -> str:
+        self._check_form(prompt)
         return self.complete_messages(prompt.messages)
+
+    def _check_form(self, prompt: Prompt) -> None:
+        # its grammar (llguidance matchers built once per tokenizer) knows absolute actions only
+        if prompt.anchors is not None and self.grammar != "none":
+            raise ConfigError("llm=transformers_local constrains replies to absolute actions only: with "
+                              "prompt.actions=anchored set llm.grammar=none or use the llamacpp engine")
 
     def complete_messages(self, messages: list[dict[str, str]]) -> str:
         """Reply to raw chat messages (complete() without a Prompt object)."""
@@ -90,6 +97,8 @@ class TransformersLocalLLM(LLM):
         from xicm.plugins.llms.batch_generate import generate_batch
 
         self.load()
+        for prompt in prompts:
+            self._check_form(prompt)
         id_lists = [self.prompts.fit(self.prompts.encode(p.messages)) for p in prompts]
         generator = self.generator
         if generator.do_sample:

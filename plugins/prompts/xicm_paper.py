@@ -16,6 +16,10 @@ Options:
     objects: paper (X-ICM's per-task objects) | all (every object of the task, under our names).
     all_labels: with objects: paper, also X-ICM's labels of scene parts our scene has as parts of
         their own (xicm_paper_objects.PARTS; the policy asks the detector for them: scene_parts).
+    actions: absolute (X-ICM's 7 integers) | anchored: each action written relative to one of its
+        observation's objects, [object, dx, dy, dz, roll, pitch, yaw, open] (xicm.core.encoding,
+        "anchored actions"), and the reply read back the same way on the query's objects
+        (Prompt.anchors). Not X-ICM's: an option of ours, off in the paper presets.
 """
 
 from __future__ import annotations
@@ -40,12 +44,28 @@ SYSTEM_PROMPT = (
     "and with nothing else."
 )
 
+SYSTEM_PROMPT_ANCHORED = (
+    "You are controlling a Franka Panda arm fitted with a parallel gripper. "
+    "First come demonstrations of tasks you already know, each written as "
+    "[task_instruction, observation]>[ action_1, action_2, ..., action_N ]. "
+    "An observation lists the task's objects, each with the [x, y, z] voxel of its centre. "
+    "An action is 8 integers [object, dx, dy, dz, roll, pitch, yaw, gripper_open]: object is the place "
+    "of an object in that observation's list (0 for the first), and dx, dy, dz are the gripper's "
+    "offset in voxels from that object. "
+    "Last comes the instruction of a task you have not seen, with a new observation. "
+    "Reply with a list of 8-integer actions for it that follows the trends of the demonstrations, "
+    "and with nothing else."
+)
+ACTION_FORMS = ("absolute", "anchored")
 
-def observation_text(
-    task: str, instruction: str, objects: dict, workspace: Box, which: str, all_labels: bool = False
-) -> str:
+
+def shown_objects(task: str, objects: dict, which: str, all_labels: bool = False) -> dict:
+    """The objects the observation names, label -> position (metres), in the order it lists them."""
+    return paper_objects(task, objects, all_labels) if which == "paper" else dict(objects)
+
+
+def observation_text(instruction: str, shown: dict, workspace: Box) -> str:
     """"['instruction': {instruction}, {'label': [x, y, z], ...}]" (no quotes around the instruction)."""
-    shown = paper_objects(task, objects, all_labels) if which == "paper" else dict(objects)
     voxels = {label: list(encoding.position_to_voxel(xyz, workspace)) for label, xyz in shown.items()}
     return f"['instruction': {instruction.strip()}, {voxels!r}]"
 
@@ -55,12 +75,15 @@ class XicmPaperPromptOptions:
     system_prompt: Optional[str] = None  # None: SYSTEM_PROMPT; "" sends no system message
     objects: str = field(default="paper", metadata=one_of("paper", "all"))
     all_labels: bool = False  # also X-ICM's labels of scene parts our scene has (objects: paper)
+    actions: str = field(default="absolute", metadata=one_of(*ACTION_FORMS))  # anchored: module docstring
 
 
 class XicmPaperPromptBuilder(PromptBuilder):
     def __init__(self, options: XicmPaperPromptOptions | None = None):
         o = options if options is not None else XicmPaperPromptOptions()
-        self.system_prompt = SYSTEM_PROMPT if o.system_prompt is None else o.system_prompt
+        self.anchored = o.actions == "anchored"
+        default_system = SYSTEM_PROMPT_ANCHORED if self.anchored else SYSTEM_PROMPT
+        self.system_prompt = default_system if o.system_prompt is None else o.system_prompt
         self.objects = o.objects
         self.all_labels = o.all_labels and o.objects == "paper"
 
@@ -68,17 +91,23 @@ class XicmPaperPromptBuilder(PromptBuilder):
         return part_names(task) if self.all_labels else []
 
     def build(self, demos: list[Demo], query: Query, workspace: Box) -> Prompt:
-        def obs_text(task: str, instruction: str, objects: dict) -> str:
-            return observation_text(task, instruction, objects, workspace, self.objects, self.all_labels)
+        def shown(task: str, objects: dict) -> dict:
+            return shown_objects(task, objects, self.objects, self.all_labels)
 
-        text = "".join(
-            f"{obs_text(d.task, d.instruction, d.objects)}>{encoding.format_actions(d.key_actions, workspace)}, "
-            for d in demos
-        )
-        text += obs_text(query.task, query.instruction, query.objects) + ">"
+        def actions_text(demo: Demo, objects: dict) -> str:
+            anchors = list(objects.values()) if self.anchored else None
+            return encoding.format_actions(demo.key_actions, workspace, anchors)
+
+        text = ""
+        for d in demos:
+            objects = shown(d.task, d.objects)
+            text += f"{observation_text(d.instruction, objects, workspace)}>{actions_text(d, objects)}, "
+        query_objects = shown(query.task, query.objects)
+        text += observation_text(query.instruction, query_objects, workspace) + ">"
         messages = [{"role": "system", "content": self.system_prompt}] if self.system_prompt else []
         messages.append({"role": "user", "content": text})
-        return Prompt(messages=messages, demos=list(demos), query=query, workspace=workspace)
+        anchors = tuple(tuple(float(v) for v in xyz) for xyz in query_objects.values()) if self.anchored else None
+        return Prompt(messages=messages, demos=list(demos), query=query, workspace=workspace, anchors=anchors)
 
 
 @hookimpl

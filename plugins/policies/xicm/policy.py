@@ -85,16 +85,16 @@ class XICMPolicy(Policy):
         self._record["responses"].append(reply)
         if self.parse_fallback:
             with self._stage("parse", "parse_error"):
-                actions, fallback = parsing.parse_actions_xicm(reply, self.workspace)
+                actions, fallback = parsing.parse_actions_xicm(reply, self.workspace, prompt.anchors)
             if fallback is not None:
                 self._record["extra"].setdefault("parse_fallbacks", []).append(f"reply {self.llm_calls}: {fallback}")
             return actions
         with self._stage("parse", "parse_error"):
-            actions = parsing.parse_actions(reply, self.workspace, partial=self.partial_replies)
+            actions = parsing.parse_actions(reply, self.workspace, partial=self.partial_replies, anchors=prompt.anchors)
         if isinstance(actions, parsing.ParseError):
             raise EpisodeFailure(actions.kind, actions.reason)
         if self.partial_replies:
-            self._cut_reply = parsing.partial_stop(reply)
+            self._cut_reply = parsing.partial_stop(reply, anchors=prompt.anchors, workspace=self.workspace)
         return actions
 
     def run_metadata(self) -> dict:

@@ -1,0 +1,115 @@
+"""Anchored actions (`prompt.actions: anchored`): demos' actions written relative to their
+observation's objects, replies read back on the query's objects. Encoding, parsing (strict, partial,
+X-ICM's reading), the prompt builder's text and anchors, and `nearest_demo` answering in that form."""
+
+from __future__ import annotations
+
+import pluggy
+import pytest
+
+from xicm.core import encoding, hookspecs
+from xicm.core.parsing import ParseError, parse_actions, parse_actions_xicm, partial_stop
+from xicm.core.plugins import Registry
+from xicm.core.types import Demo, KeyAction, Query
+from xicm.plugins.llms.nearest_demo import NearestDemoLLM
+from xicm.plugins.prompts import xicm_paper
+
+WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))  # 1 cm voxels
+UP = (1.0, 0.0, 0.0, 0.0)  # rotation bins [36, 36, 36]
+
+
+def voxel(i, j, k):
+    return (-0.3 + 0.01 * (i + 0.5), -0.5 + 0.01 * (j + 0.5), 0.6 + 0.01 * (k + 0.5))
+
+
+def jar_demo():
+    return Demo(
+        demo_id="close_jar/s0/e0", task="close_jar", instruction="close the red jar", seed=0, episode=0,
+        objects={"red jar": voxel(40, 50, 20), "green jar": voxel(45, 55, 20), "jar lid": voxel(30, 70, 20)},
+        # above the lid, down onto it, then over the red jar
+        key_actions=[KeyAction(voxel(30, 70, 25), UP, True), KeyAction(voxel(30, 70, 21), UP, False),
+                     KeyAction(voxel(41, 50, 26), UP, False)],
+    )
+
+
+def hoop_query():
+    return Query("basketball_in_hoop", "put the ball in the hoop", {"ball": voxel(30, 50, 20), "hoop": voxel(60, 70, 40)})
+
+
+def builder(**options):
+    pm = pluggy.PluginManager("xicm")
+    pm.add_hookspecs(hookspecs)
+    pm.register(xicm_paper)
+    return Registry(pm).create("prompt", {"name": "xicm_paper", **options})
+
+
+HOOP, BALL = voxel(60, 70, 40), voxel(30, 50, 20)  # the query's objects in the prompt's order (X-ICM's: hoop, ball)
+
+
+def test_actions_are_written_on_their_nearest_object_and_read_back_on_the_query():
+    demo = jar_demo()
+    anchors = [demo.objects["jar lid"], demo.objects["red jar"]]
+    text = encoding.format_actions(demo.key_actions, WS, anchors)
+    assert text == "[[0, 0, 0, 5, 36, 36, 36, 1], [0, 0, 0, 1, 36, 36, 36, 0], [1, 1, 0, 6, 36, 36, 36, 0]]"
+    actions = parse_actions(text, WS, anchors=[HOOP, BALL])  # the demo's motion moved onto hoop and ball
+    assert [encoding.position_to_voxel(a.position, WS) for a in actions] == [(60, 70, 45), (60, 70, 41), (31, 50, 26)]
+    assert [a.gripper_open for a in actions] == [True, False, False]
+    # read on the demo's own objects, the text gives the demo's own voxels back
+    back = parse_actions(text, WS, anchors=anchors)
+    assert [encoding.action_to_ints(a, WS) for a in back] == [encoding.action_to_ints(a, WS) for a in demo.key_actions]
+
+
+def test_an_object_index_past_the_query_objects_wraps_and_no_objects_anchor_on_the_origin():
+    wrapped = parse_actions("[[3, 0, 0, 0, 36, 36, 36, 1]]", WS, anchors=[HOOP, BALL])
+    assert encoding.position_to_voxel(wrapped[0].position, WS) == (30, 50, 20)  # 3 % 2 = 1: the ball
+    origin = parse_actions("[[0, 7, 8, 9, 36, 36, 36, 1]]", WS, anchors=())
+    assert encoding.position_to_voxel(origin[0].position, WS) == (7, 8, 9)
+    assert encoding.format_actions([KeyAction(voxel(7, 8, 9), UP, True)], WS, []) == "[[0, 7, 8, 9, 36, 36, 36, 1]]"
+
+
+def test_bad_anchored_replies_are_one_sentence():
+    anchors = [HOOP, BALL]
+    off = parse_actions("[[0, 0, 0, 70, 36, 36, 36, 1]]", WS, anchors=anchors)  # 40 + 70 = 110: off the grid
+    assert isinstance(off, ParseError) and "out of range once anchored: [60, 70, 110" in off.reason
+    negative = parse_actions("[[-1, 0, 0, 0, 36, 36, 36, 1]]", WS, anchors=anchors)
+    assert isinstance(negative, ParseError) and "names object -1" in negative.reason
+    absolute = parse_actions("[[60, 70, 45, 36, 36, 36, 1]]", WS, anchors=anchors)  # the other form
+    assert isinstance(absolute, ParseError) and "[object, dx, dy, dz, roll, pitch, yaw, gripper] group of 8" in absolute.reason
+    assert isinstance(parse_actions("[[0, 0, 0, 5, 36, 36, 36, 1]]", WS), ParseError)  # 8 items, absolute reading
+
+
+def test_partial_and_xicm_readings_of_anchored_replies():
+    anchors = [HOOP, BALL]
+    reply = "[[0, 0, 0, 5, 36, 36, 36, 1], [1, 0, 0, 90, 36, 36, 36, 0], [1, 0, 0, 1, 36, 36, 36, 0]]"
+    kept = parse_actions(reply, WS, partial=True, anchors=anchors)
+    assert len(kept) == 1 and encoding.position_to_voxel(kept[0].position, WS) == (60, 70, 45)
+    assert "out of range once anchored: [30, 50, 110" in partial_stop(reply, anchors=anchors, workspace=WS)
+    actions, fallback = parse_actions_xicm(reply, WS, anchors)  # no range check, as X-ICM's reading
+    assert fallback is None and len(actions) == 3
+    assert encoding.position_to_voxel(actions[2].position, WS) == (30, 50, 21)
+    none, why = parse_actions_xicm("[[60, 70, 45, 36, 36, 36, 1]]", WS, anchors)
+    assert len(none) == 1 and why == "no group of 8 integers: one default action"
+
+
+def test_the_prompt_writes_anchored_demos_and_passes_the_query_anchors():
+    absolute = builder().build([jar_demo()], hoop_query(), WS)
+    anchored = builder(actions="anchored").build([jar_demo()], hoop_query(), WS)
+    assert absolute.anchors is None
+    assert anchored.anchors == (HOOP, BALL)  # X-ICM lists the hoop first
+    assert anchored.messages[-1]["content"] == (
+        "['instruction': close the red jar, {'lid': [30, 70, 20], 'jar': [40, 50, 20]}]>"
+        "[[0, 0, 0, 5, 36, 36, 36, 1], [0, 0, 0, 1, 36, 36, 36, 0], [1, 1, 0, 6, 36, 36, 36, 0]], "
+        "['instruction': put the ball in the hoop, {'hoop': [60, 70, 40], 'ball': [30, 50, 20]}]>"
+    )
+    assert anchored.messages[0]["content"] == xicm_paper.SYSTEM_PROMPT_ANCHORED
+    with pytest.raises(Exception, match="absolute, anchored"):
+        builder(actions="relative")
+
+
+def test_nearest_demo_answers_in_the_prompt_form_with_the_same_actions():
+    llm = NearestDemoLLM()
+    absolute = builder().build([jar_demo()], hoop_query(), WS)
+    anchored = builder(actions="anchored").build([jar_demo()], hoop_query(), WS)
+    plain = parse_actions(llm.complete(absolute), WS)
+    moved = parse_actions(llm.complete(anchored), WS, anchors=anchored.anchors)
+    assert [encoding.action_to_ints(a, WS) for a in moved] == [encoding.action_to_ints(a, WS) for a in plain]
