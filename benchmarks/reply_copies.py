@@ -10,7 +10,9 @@ call's messages and reply) and sorts every reply that holds at least one action:
 
     python benchmarks/reply_copies.py RUN_DIR [RUN_DIR ...] [--near 2]
 
-Written for X-ICM's prompt layout (`prompt=xicm_paper`: entries `[instruction, {objects}]>[[actions]]`).
+Written for X-ICM's prompt layout (`prompt=xicm_paper`: entries `[instruction, {objects}]>[[actions]]`),
+absolute or anchored actions (`prompt.actions=anchored`: an anchored action is at a query object
+when its own x and y offsets are within `--near` voxels).
 """
 
 from __future__ import annotations
@@ -24,14 +26,17 @@ from pathlib import Path
 
 from bench_reply_loops import ACTION  # one action of the reply format, as the loop study reads it
 
+ANCHORED = re.compile(r"\[\d, -?\d+, -?\d+, -?\d+, \d+, \d+, \d+, [01]\]")  # prompt.actions=anchored
 DEMO_ACTIONS = re.compile(r"\]>(\[\[.*?\]\])")  # each demo's list follows its observation's "]>"
 OBJECTS = re.compile(r"\{[^{}]*\}")
 
 
 def sort_reply(prompt: str, reply: str, near: int) -> list[str]:
     """The labels of one call (empty when the reply or the prompt holds no action)."""
-    demos = [ACTION.findall(text) for text in DEMO_ACTIONS.findall(prompt)]
-    actions = ACTION.findall(reply)
+    anchored = bool(ANCHORED.search(prompt))
+    pattern = ANCHORED if anchored else ACTION
+    demos = [pattern.findall(text) for text in DEMO_ACTIONS.findall(prompt)]
+    actions = pattern.findall(reply)
     if not actions or not demos:
         return []
     labels = []
@@ -44,9 +49,12 @@ def sort_reply(prompt: str, reply: str, near: int) -> list[str]:
         labels.append("all copied")
     else:
         labels.append("some copied" if copied else "none copied")
-    observations = OBJECTS.findall(prompt)
-    query_objects = _objects(observations[-1]) if observations else []
-    xy = [tuple(ast.literal_eval(a)[:2]) for a in actions]
+    if anchored:  # the offsets from an object of the query
+        query_objects, xy = [[0, 0]], [tuple(ast.literal_eval(a)[1:3]) for a in actions]
+    else:
+        observations = OBJECTS.findall(prompt)
+        query_objects = _objects(observations[-1]) if observations else []
+        xy = [tuple(ast.literal_eval(a)[:2]) for a in actions]
     if any(abs(x - ox) <= near and abs(y - oy) <= near for x, y in xy for ox, oy, *_ in query_objects):
         labels.append("at a query object")
     return labels

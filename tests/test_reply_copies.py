@@ -49,6 +49,26 @@ def test_replies_are_sorted_by_what_they_copy_and_whether_they_reach_the_query(t
     assert counts == {"all copied": 1, "at a query object": 2, "equals demo 1 of 2": 1, "none copied": 1, "some copied": 2}
 
 
+ANCHORED_PROMPT = ("['instruction': close the jar, {'lid': [37, 44, 17], 'jar': [57, 58, 21]}]>"
+                   "[[0, 0, 0, 9, 0, 36, 36, 1], [1, 0, 0, 5, 0, 36, 36, 0]], "
+                   "['instruction': close the jar, {'lid': [57, 34, 17], 'jar': [54, 47, 21]}]>")
+
+
+def test_anchored_replies_are_sorted_the_same_way(tmp_path, monkeypatch, capsys):
+    calls = [{"messages": [{"role": "user", "content": ANCHORED_PROMPT}], "reply": r} for r in [
+        "[[0, 0, 0, 9, 0, 36, 36, 1], [1, 0, 0, 5, 0, 36, 36, 0]]",    # the demo, verbatim: on the query's objects
+        "[[1, 0, 0, 5, 0, 36, 36, 0]]",                                # copied, at the jar
+        "[[0, 20, 0, 9, 0, 36, 36, 1]]",                               # 20 voxels off the lid
+        "[[0, 3, 0, 9, 0, 36, 36, 1], [0, 0, 1, 9, 0, 36, 36, 1]]",   # new, one of them at the lid
+        "[[1, 0, 0, 5, 0, 36, 36, 0], [0, 9, 9, 9, 0, 36, 36, 1]]",   # half copied
+    ]]
+    folder = tmp_path / "transcripts" / "close_jar"
+    folder.mkdir(parents=True)
+    (folder / "s0-e0000.json").write_text(json.dumps({"calls": calls}))
+    counts = _main(monkeypatch, capsys, tmp_path)
+    assert counts == {"all copied": 1, "at a query object": 4, "equals demo 1 of 1": 1, "none copied": 2, "some copied": 1}
+
+
 def test_a_folder_without_transcripts_is_refused_with_one_sentence(tmp_path, monkeypatch, capsys):
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     monkeypatch.setattr(sys, "argv", ["reply_copies.py", str(tmp_path)])
