@@ -157,9 +157,10 @@ def _absolute(values: list[int], anchors: Anchors, workspace) -> list[int] | Non
     """The absolute 7 integers of a group (itself when not anchored); None for a negative object index."""
     if anchors is None:
         return values
-    if values[0] < 0:
+    try:
+        return encoding.anchored_to_absolute_ints(values, anchors, workspace)
+    except ValueError:  # a negative object index (the group's size was checked by the caller)
         return None
-    return encoding.anchored_to_absolute_ints(values, anchors, workspace)
 
 
 def _out_of_range(values: list[int], absolute: list[int] | None) -> str:
