@@ -28,7 +28,8 @@ from xicm.core.types import (
 
 
 class Simulator(ABC):
-    """One live scene, reused across episodes (the first render of a process is slow)."""
+    """One simulator, reused across episodes (the first render of a process is slow); a reset
+    gives the same episode whatever the process simulated before."""
 
     #: (low xyz, high xyz) of the box the 100^3 text grid covers, metres, world frame.
     workspace: Box

@@ -20,8 +20,7 @@ pytest_plugins = ["lanes", "prebuild", "file_order", "strict_skips", "pytester"]
 @pytest.fixture(scope="session")
 def sim():
     """One rendering SAPIEN simulator for the session (a process's first render compiles shaders,
-    ~7 s, and pictures of a new scene cost more): for tests that render or do not depend on what
-    the physics did before. Physics-exact tests take `physics_sim`."""
+    ~7 s): for tests that render. Tests of physics alone take `physics_sim`."""
     from xicm.core.plugins import get_registry
 
     simulator = get_registry().create_simulator({"name": "sapien", "image_size": 128})
@@ -31,9 +30,8 @@ def sim():
 
 @pytest.fixture
 def physics_sim():
-    """A fresh physics-only SAPIEN simulator (render=False, ~0.02 s to build) for each test whose
-    outcome is exact physics: a PhysX scene that has loaded and removed other tasks' objects
-    steps differently, so a shared one made such tests depend on which tests ran before."""
+    """A fresh physics-only SAPIEN simulator (render=False, ~0.02 s to build) for each test of
+    physics alone. (Every reset builds a new scene, so a shared simulator would repeat too.)"""
     from xicm.core.plugins import get_registry
 
     simulator = get_registry().create_simulator({"name": "sapien", "render": False})

@@ -47,7 +47,7 @@ RLBENCH_WORKSPACE_Z = (TABLE_TOP_Z, TABLE_TOP_Z + 1.0)
 
 
 class World:
-    """One live SAPIEN scene; task objects come and go, everything here stays."""
+    """One SAPIEN scene with the table, lights, robot and cameras; the simulator builds one per episode."""
 
     def __init__(
         self,
