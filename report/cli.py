@@ -35,6 +35,10 @@ def report_parser() -> argparse.ArgumentParser:
         help="instead, compare two runs DIR_A DIR_B on the episodes both hold: per-task counts and the exact McNemar test",
     )
     parser.add_argument(
+        "--episodes", type=_episode_range, default=None, metavar="FIRST:STOP",
+        help="with --paired: compare only episodes FIRST to STOP-1 of each task and seed (e.g. 15:25)",
+    )
+    parser.add_argument(
         "--pool", metavar="PATH",
         help="with --html: the demonstration pool to take retrieved demos' first frames from "
         "(default: the run's pool_path, as recorded or relative to the run folder)",
@@ -56,6 +60,15 @@ def _non_negative(text: str) -> float:
     return value
 
 
+def _episode_range(text: str) -> range:
+    from xicm.report.paired import episode_range
+
+    try:
+        return episode_range(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def _write_html(run_dir: Path, args: argparse.Namespace) -> None:
     from xicm.report.html_run import INLINE_VIDEO_MB, write_run_html
     from xicm.core.run_dir import RunDir
@@ -67,7 +80,7 @@ def _write_html(run_dir: Path, args: argparse.Namespace) -> None:
     print(f"written: {path} ({path.stat().st_size / 1e6:.2f} MB)\n")
 
 
-def _print_paired(dirs: list[str]) -> None:
+def _print_paired(dirs: list[str], episodes: range | None) -> None:
     from xicm.report.paired import paired_comparison, paired_markdown
     from xicm.core.run_dir import RunDir
 
@@ -77,7 +90,7 @@ def _print_paired(dirs: list[str]) -> None:
         rows = [RunDir(Path(d)).rows(RunDir(Path(d)).read_meta()) for d in dirs]
     except (XicmError, OSError) as exc:
         _fail(XicmError(str(exc)))
-    print(paired_markdown(paired_comparison(*rows), dirs[0], dirs[1]))
+    print(paired_markdown(paired_comparison(*rows, episodes=episodes), dirs[0], dirs[1]))
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -94,8 +107,10 @@ def _report(argv: list[str] | None) -> None:
 
     args = report_parser().parse_args(argv)
     if args.paired:
-        _print_paired(args.dirs)
+        _print_paired(args.dirs, args.episodes)
         return
+    if args.episodes is not None:
+        _fail(XicmError("--episodes narrows a paired comparison: xicm-report --paired RUN_A RUN_B --episodes FIRST:STOP"))
     if args.merge is not None:
         from xicm.report.merge import merge_runs
 

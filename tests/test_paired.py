@@ -34,3 +34,32 @@ def test_paired_command_needs_two_runs(capsys):
         report_main(["--paired", "only_one_run"])
     assert done.value.code == 2
     assert "--paired compares two runs, not 1: xicm-report --paired RUN_A RUN_B" in capsys.readouterr().err
+
+
+def test_episode_range_narrows_the_comparison():
+    from xicm.report.paired import episode_range
+
+    a = [row("t1", 0, e, e >= 2) for e in range(4)]
+    b = [row("t1", 0, e, e == 0) for e in range(4)]
+    result = paired_comparison(a, b, episodes=episode_range("2:4"))
+    assert (result["n"], result["a"], result["b"], result["only_a"], result["only_b"]) == (2, 2, 0, 2, 0)
+    assert "Paired over 2 common episodes, episodes 2-3 only" in paired_markdown(result, "A", "B")
+    assert paired_comparison(a, b)["n"] == 4
+
+
+@pytest.mark.parametrize("text", ["15", "25:15", "3:3", "a:b", "1.5:3", ":"])
+def test_a_bad_episode_range_is_one_sentence(text, capsys):
+    from xicm.report.cli import main as report_main
+
+    with pytest.raises(SystemExit) as done:
+        report_main(["--paired", "run_a", "run_b", "--episodes", text])
+    assert done.value.code == 2
+    assert "is not an episode range FIRST:STOP" in capsys.readouterr().err
+
+
+def test_episode_range_needs_paired(capsys):
+    from xicm.report.cli import main as report_main
+
+    with pytest.raises(SystemExit):
+        report_main(["some_run", "--episodes", "0:5"])
+    assert "--episodes narrows a paired comparison" in capsys.readouterr().err
