@@ -50,7 +50,7 @@ def paired_comparison(rows_a: Sequence[dict[str, Any]], rows_b: Sequence[dict[st
 def episode_range(text: str) -> range:
     """`FIRST:STOP` (STOP excluded, as in a Python slice) as a range; one sentence on anything else."""
     first, sep, stop = text.partition(":")
-    if sep and first.strip().isdigit() and stop.strip().isdigit() and int(first) < int(stop):
+    if sep and first.strip().isdecimal() and stop.strip().isdecimal() and int(first) < int(stop):
         return range(int(first), int(stop))
     raise ValueError(f"{text!r} is not an episode range FIRST:STOP with 0 <= FIRST < STOP (e.g. 15:25 for episodes 15-24)")
 

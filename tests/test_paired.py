@@ -47,7 +47,7 @@ def test_episode_range_narrows_the_comparison():
     assert paired_comparison(a, b)["n"] == 4
 
 
-@pytest.mark.parametrize("text", ["15", "25:15", "3:3", "a:b", "1.5:3", ":"])
+@pytest.mark.parametrize("text", ["15", "25:15", "3:3", "a:b", "1.5:3", ":", "\u00b2:5"])
 def test_a_bad_episode_range_is_one_sentence(text, capsys):
     from xicm.report.cli import main as report_main
 
@@ -60,6 +60,6 @@ def test_a_bad_episode_range_is_one_sentence(text, capsys):
 def test_episode_range_needs_paired(capsys):
     from xicm.report.cli import main as report_main
 
-    with pytest.raises(SystemExit):
+    with pytest.raises(SystemExit) as done:
         report_main(["some_run", "--episodes", "0:5"])
-    assert "--episodes narrows a paired comparison" in capsys.readouterr().err
+    assert done.value.code == 2 and "--episodes narrows a paired comparison" in capsys.readouterr().err
