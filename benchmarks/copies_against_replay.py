@@ -1,4 +1,4 @@
-"""Where does an anchored LLM row win or lose against the replay? Its episodes split by what the first reply copies (prints figures)
+"""Where an anchored LLM row wins or loses against the replay, by what its first reply copies (prints figures)
 
 Pairs an LLM run made with `prompt.actions=anchored` with a `nearest_demo` run on the same episodes
 (task, seed, episode) and sorts each common episode by its first call:
