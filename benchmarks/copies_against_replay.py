@@ -21,9 +21,13 @@ import json
 from pathlib import Path
 
 from reply_copies import ANCHORED, DEMO_ACTIONS, sort_reply
+from xicm.core.run_dir import RunDir
+
+COLUMNS = ("episodes", "llm", "replay", "llm only", "replay only")
 
 
 def objects(actions: list[str]) -> list[str]:
+    """The object numbers of anchored actions (`[object, dx, dy, dz, ...]`)."""
     return [action[1:].split(",")[0] for action in actions]
 
 
@@ -35,17 +39,17 @@ def first_reply_kind(prompt: str, reply: str) -> str:
     return "the first demo's list" if equal.startswith("equals demo 1 ") else "another demo's list"
 
 
-def episodes(run: Path) -> dict[tuple, dict]:
-    rows = (json.loads(line) for line in (run / "episodes.jsonl").read_text().splitlines() if line.strip())
-    return {(row["task"], int(row["seed"]), int(row["episode"])): row for row in rows}
+def by_episode(run: RunDir) -> dict[tuple, dict]:
+    """The run's configured episodes (as `xicm-report --paired` counts them) by (task, seed, episode)."""
+    return {(row["task"], int(row["seed"]), int(row["episode"])): row for row in run.rows()}
 
 
-def groups(llm_run: Path, replay_run: Path) -> dict[tuple[str, bool], list[int]]:
-    """(kind, replay keeps demo 1's objects) -> [episodes, LLM successes, replay successes, LLM only, replay only]."""
-    replay = episodes(replay_run)
-    out: dict[tuple[str, bool], list[int]] = collections.defaultdict(lambda: [0, 0, 0, 0, 0])
-    for key, row in episodes(llm_run).items():
-        path = llm_run / "transcripts" / row["task"] / f"s{key[1]}-e{key[2]:04d}.json"
+def groups(llm_run: RunDir, replay_run: RunDir) -> dict[tuple[str, bool], collections.Counter]:
+    """(kind, replay keeps demo 1's objects) -> counts of COLUMNS."""
+    replay = by_episode(replay_run)
+    out: dict[tuple[str, bool], collections.Counter] = collections.defaultdict(collections.Counter)
+    for key, row in by_episode(llm_run).items():
+        path = llm_run.transcript(*key)
         if key not in replay or not path.exists() or not replay[key]["responses"]:
             continue
         call = json.loads(path.read_text())["calls"][0]
@@ -53,12 +57,10 @@ def groups(llm_run: Path, replay_run: Path) -> dict[tuple[str, bool], list[int]]
         demos = [ANCHORED.findall(text) for text in DEMO_ACTIONS.findall(prompt)]
         if not demos or not demos[0]:
             raise SystemExit(f"{path} holds no anchored demo actions: the LLM run must use prompt.actions=anchored")
-        replay_first = ANCHORED.findall(replay[key]["responses"][0])
-        keeps = objects(replay_first[:len(demos[0])]) == objects(demos[0])
+        keeps = objects(ANCHORED.findall(replay[key]["responses"][0])[:len(demos[0])]) == objects(demos[0])
         a, b = bool(row["success"]), bool(replay[key]["success"])
-        cell = out[(first_reply_kind(prompt, call["reply"]), keeps)]
-        for i, value in enumerate((1, a, b, a and not b, b and not a)):
-            cell[i] += value
+        out[(first_reply_kind(prompt, call["reply"]), keeps)].update(
+            {"episodes": 1, "llm": int(a), "replay": int(b), "llm only": int(a and not b), "replay only": int(b and not a)})
     return dict(out)
 
 
@@ -67,15 +69,17 @@ def main() -> None:
     parser.add_argument("llm_run", type=Path, help="an xicm-eval run with prompt.actions=anchored and transcripts/")
     parser.add_argument("replay_run", type=Path, help="the nearest_demo run on the same episodes")
     args = parser.parse_args()
-    for run in (args.llm_run, args.replay_run):
-        if not (run / "episodes.jsonl").exists():
-            parser.error(f"{run} holds no episodes.jsonl: give xicm-eval run folders")
+    llm_run, replay_run = RunDir(args.llm_run), RunDir(args.replay_run)
+    for run in (llm_run, replay_run):
+        if not run.is_run():
+            parser.error(f"{run.path} holds no episodes.jsonl and run.json: give xicm-eval run folders")
     if not any(args.llm_run.glob("transcripts/*/*.json")):
         parser.error(f"{args.llm_run} holds no transcripts/<task>/*.json: run xicm-eval with transcripts=true")
-    table = groups(args.llm_run, args.replay_run)
+    table = groups(llm_run, replay_run)
     print("| the LLM's first reply | replay keeps demo 1's objects | episodes | LLM | replay | LLM only / replay only |")
     print("|---|---|---:|---:|---:|---:|")
-    for (kind, keeps), (n, a, b, only_a, only_b) in sorted(table.items()):
+    for (kind, keeps), cell in sorted(table.items()):
+        n, a, b, only_a, only_b = (cell[column] for column in COLUMNS)
         print(f"| {kind} | {'yes' if keeps else 'no'} | {n} | {a} | {b} | {only_a} / {only_b} |")
 
 

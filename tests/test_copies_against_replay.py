@@ -33,6 +33,7 @@ def _runs(tmp_path):
         rows = [{"task": "close_box", "seed": 0, "episode": e, "success": v[success_at], "responses": [v[reply_at]]}
                 for e, v in EPISODES.items()]
         (run / "episodes.jsonl").write_text("".join(json.dumps(row) + "\n" for row in rows))
+        (run / "run.json").write_text("{}")  # no config: every row counts
     for e, (reply, *_) in EPISODES.items():
         calls = [{"messages": [{"role": "user", "content": PROMPT}], "reply": reply}]
         (llm / "transcripts" / "close_box" / f"s0-e{e:04d}.json").write_text(json.dumps({"calls": calls}))
@@ -70,4 +71,4 @@ def test_a_folder_without_episodes_is_refused_with_one_sentence(tmp_path, monkey
     llm, _ = _runs(tmp_path)
     with pytest.raises(SystemExit) as done:
         _main(monkeypatch, capsys, llm, tmp_path / "nothing")
-    assert done.value.code == 2 and "holds no episodes.jsonl" in capsys.readouterr().err
+    assert done.value.code == 2 and "holds no episodes.jsonl and run.json" in capsys.readouterr().err
