@@ -191,6 +191,8 @@ class Prompt:
     # The query's objects (metres) in the order the prompt lists them, when the prompt writes actions
     # anchored on objects (xicm.core.encoding, "anchored actions"); None: absolute 7-integer actions.
     anchors: tuple[tuple[float, float, float], ...] | None = None
+    # Each demo's objects (metres) in the order the prompt lists them, beside `demos`, when anchored.
+    demo_anchors: tuple[tuple[tuple[float, float, float], ...], ...] | None = None
 
 
 @dataclass

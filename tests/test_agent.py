@@ -9,7 +9,7 @@ from xicm.core.episode import run_episode
 from xicm.core.errors import ConfigError, LLMError
 from xicm.core.interfaces import LLM, Detector, PolicyContext
 from xicm.core.plugins import get_registry
-from xicm.plugins.llms.nearest_demo import reanchor
+from xicm.core.reanchor import reanchor
 from xicm.plugins.policies.xicm import XicmPolicyOptions, create_xicm_policy
 from xicm.plugins.policies.xicm.policy import XICMPolicy
 

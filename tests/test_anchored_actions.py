@@ -10,8 +10,9 @@ import pytest
 from xicm.core import encoding, hookspecs
 from xicm.core.parsing import ParseError, parse_actions, parse_actions_xicm, partial_stop
 from xicm.core.plugins import Registry
-from xicm.core.types import Demo, KeyAction, Query
-from xicm.plugins.llms.nearest_demo import NearestDemoLLM
+from xicm.core.reanchor import order_like_demo
+from xicm.core.types import Demo, KeyAction, Prompt, Query
+from xicm.plugins.llms.nearest_demo import NearestDemoLLM, NearestDemoOptions
 from xicm.plugins.prompts import xicm_paper
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))  # 1 cm voxels
@@ -113,3 +114,59 @@ def test_nearest_demo_answers_in_the_prompt_form_with_the_same_actions():
     plain = parse_actions(llm.complete(absolute), WS)
     moved = parse_actions(llm.complete(anchored), WS, anchors=anchored.anchors)
     assert [encoding.action_to_ints(a, WS) for a in moved] == [encoding.action_to_ints(a, WS) for a in plain]
+
+
+def jar_query():
+    """A query of a task X-ICM lists no objects for (so its scene's own names and order): the lid's
+    and the red jar's roles are the demo's, listed the other way round."""
+    return Query("stack_jars", "put the lid on the red jar", {"red jar": voxel(50, 30, 20), "jar lid": voxel(20, 40, 20)})
+
+
+def ints(actions):
+    return [encoding.action_to_ints(a, WS) for a in actions]
+
+
+def test_query_order_first_demo_lists_the_query_objects_where_the_replay_moves_the_demo_objects():
+    own = builder(actions="anchored").build([jar_demo()], jar_query(), WS)
+    aligned = builder(actions="anchored", query_order="first_demo").build([jar_demo()], jar_query(), WS)
+    assert own.anchors == (voxel(50, 30, 20), voxel(20, 40, 20))  # the scene's order: red jar, jar lid
+    assert aligned.anchors == (voxel(20, 40, 20), voxel(50, 30, 20))  # the demo lists its lid first
+    assert aligned.demo_anchors == own.demo_anchors == ((voxel(30, 70, 20), voxel(40, 50, 20)),)
+    assert aligned.messages[-1]["content"].endswith(
+        "['instruction': put the lid on the red jar, {'jar lid': [20, 40, 20], 'red jar': [50, 30, 20]}]>")
+    with pytest.raises(Exception, match="own, first_demo"):
+        builder(query_order="alphabetical")
+
+
+def test_a_copy_of_the_first_demo_lands_where_the_replay_does_only_with_the_aligned_order():
+    copy, replay = NearestDemoLLM(NearestDemoOptions(reply="copy")), NearestDemoLLM()
+    own = builder(actions="anchored").build([jar_demo()], jar_query(), WS)
+    aligned = builder(actions="anchored", query_order="first_demo").build([jar_demo()], jar_query(), WS)
+    # the copy is the demo's list exactly as the prompt writes it
+    assert copy.complete(own) == copy.complete(aligned) == "[[0, 0, 0, 5, 36, 36, 36, 1], [0, 0, 0, 1, 36, 36, 36, 0], [1, 1, 0, 6, 36, 36, 36, 0]]"
+    assert copy.complete(own) in own.messages[-1]["content"]
+    replayed = ints(parse_actions(replay.complete(aligned), WS, anchors=aligned.anchors))
+    assert replayed == ints(parse_actions(replay.complete(own), WS, anchors=own.anchors))  # the order does not move the replay
+    assert ints(parse_actions(copy.complete(aligned), WS, anchors=aligned.anchors)) == replayed
+    assert ints(parse_actions(copy.complete(own), WS, anchors=own.anchors)) != replayed  # the lid's actions on the red jar
+
+
+def test_copy_in_the_absolute_form_and_without_demo_anchors():
+    copy = NearestDemoLLM(NearestDemoOptions(reply="copy"))
+    absolute = builder().build([jar_demo()], jar_query(), WS)
+    assert copy.complete(absolute) == encoding.format_actions(jar_demo().key_actions, WS)
+    anchored = builder(actions="anchored").build([jar_demo()], jar_query(), WS)
+    bare = Prompt(messages=anchored.messages, demos=anchored.demos, query=anchored.query, workspace=WS, anchors=anchored.anchors)
+    with pytest.raises(ValueError, match="llm.reply=copy needs a prompt"):
+        copy.complete(bare)
+    assert '"reply": "copy"' in copy.identity() and "reply" not in NearestDemoLLM().identity()
+
+
+def test_order_like_demo_keeps_left_over_objects_in_order_and_needs_scene_objects():
+    demo = jar_demo()
+    query = Query("t", "i", {"a": voxel(1, 1, 1), "b": voxel(2, 2, 2), "c": voxel(3, 3, 3)})
+    listed = dict(query.objects)
+    # demo objects red jar (0), green jar (1), jar lid (2) -> query a, b, c by place; one shown demo object: the lid
+    assert order_like_demo({"lid": demo.objects["jar lid"]}, demo, listed, query) == ["c", "a", "b"]
+    bare = Query("t", "i", {})
+    assert order_like_demo({"lid": demo.objects["jar lid"]}, demo, {"x": voxel(0, 0, 0)}, bare) == ["x"]

@@ -61,7 +61,7 @@ def _one_sentence(out) -> str:
         (["-m", "episodes=2,abc"], "episodes must be an integer >= 1, not 'abc'"),  # each value of a sweep
         (["policy.k=0"], "policy.k must be an integer >= 1, not 0"),  # a plugin's range (the policy's)
         (["policy=oracle", "simulator.image_size=0"], f"simulator.image_size must be {IMAGE_SIZE}, not 0"),
-        (["+llm.k=3"], "unknown option llm.k of llm 'nearest_demo'; available: demo_rank, grammar, stop_at_action_list"),  # an option it does not take
+        (["+llm.k=3"], "unknown option llm.k of llm 'nearest_demo'; available: demo_rank, grammar, reply, stop_at_action_list"),  # an option it does not take
         (["retriever.exclude_same_task=maybe"], "retriever.exclude_same_task must be true or false, not 'maybe'"),
         (["episode=3"], f"unknown key episode (did you mean episodes?); the config has: {', '.join(TOP_KEYS)}"),
     ],
@@ -201,7 +201,7 @@ def test_the_simulator_and_the_policy_options_are_checked_before_anything_is_bui
         (["retriever=dynamics", "~encoder.checkpoint"],
          "encoder.checkpoint must be set to a string; encoder 'dynamics' has no default for it"),
         (["+prompt.k=18"], "unknown option prompt.k of prompt 'xicm'; available: system_prompt"),
-        (["+llm.k=3", "+llm.top_k=3"], "unknown options llm.k, llm.top_k of llm 'nearest_demo'; available: demo_rank, grammar, stop_at_action_list"),
+        (["+llm.k=3", "+llm.top_k=3"], "unknown options llm.k, llm.top_k of llm 'nearest_demo'; available: demo_rank, grammar, reply, stop_at_action_list"),
     ],
 )
 def test_the_policy_parts_options_are_checked_before_anything_is_built(tmp_path, overrides, sentence):

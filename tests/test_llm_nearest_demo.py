@@ -14,7 +14,8 @@ from xicm.core.errors import ConfigError
 from xicm.core.plugins import Registry
 from xicm.core.types import Demo, KeyAction, Prompt, Query
 from xicm.plugins.llms import nearest_demo
-from xicm.plugins.llms.nearest_demo import NearestDemoLLM, NearestDemoOptions, reanchor
+from xicm.core.reanchor import reanchor
+from xicm.plugins.llms.nearest_demo import NearestDemoLLM, NearestDemoOptions
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 Q1 = (0.0, 1.0, 0.0, 0.0)

@@ -20,6 +20,11 @@ Options:
         observation's objects, [object, dx, dy, dz, roll, pitch, yaw, open] (xicm.core.encoding,
         "anchored actions"), and the reply read back the same way on the query's objects
         (Prompt.anchors). Not X-ICM's: an option of ours, off in the paper presets.
+    query_order: own (the query's objects in the order `objects` gives them) | first_demo: the
+        query's objects reordered so that place i holds the object the `nearest_demo` replay moves
+        the first demo's i-th object onto (xicm.core.reanchor.order_like_demo); with anchored
+        actions a list copied whole from the first demo then lands where the replay's does. The
+        observation still gives every object its own label and voxel. Not X-ICM's: an option of ours.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from typing import Optional
 from xicm.core import encoding
 from xicm.core.hookspecs import hookimpl
 from xicm.core.interfaces import Box, PromptBuilder
+from xicm.core.reanchor import order_like_demo
 from xicm.core.schema import one_of
 from xicm.core.types import Demo, Prompt, Query
 
@@ -57,6 +63,7 @@ SYSTEM_PROMPT_ANCHORED = (
     "and with nothing else."
 )
 ACTION_FORMS = ("absolute", "anchored")
+QUERY_ORDERS = ("own", "first_demo")
 
 
 def shown_objects(task: str, objects: dict, which: str, all_labels: bool = False) -> dict:
@@ -76,6 +83,7 @@ class XicmPaperPromptOptions:
     objects: str = field(default="paper", metadata=one_of("paper", "all"))
     all_labels: bool = False  # also X-ICM's labels of scene parts our scene has (objects: paper)
     actions: str = field(default="absolute", metadata=one_of(*ACTION_FORMS))  # anchored: module docstring
+    query_order: str = field(default="own", metadata=one_of(*QUERY_ORDERS))  # first_demo: module docstring
 
 
 class XicmPaperPromptBuilder(PromptBuilder):
@@ -86,6 +94,7 @@ class XicmPaperPromptBuilder(PromptBuilder):
         self.system_prompt = default_system if o.system_prompt is None else o.system_prompt
         self.objects = o.objects
         self.all_labels = o.all_labels and o.objects == "paper"
+        self.query_order = o.query_order
 
     def scene_parts(self, task: str) -> list[str]:
         return part_names(task) if self.all_labels else []
@@ -98,16 +107,26 @@ class XicmPaperPromptBuilder(PromptBuilder):
             anchors = list(objects.values()) if self.anchored else None
             return encoding.format_actions(demo.key_actions, workspace, anchors)
 
+        def points(objects: dict) -> tuple:
+            return tuple(tuple(float(v) for v in xyz) for xyz in objects.values())
+
         text = ""
-        for d in demos:
-            objects = shown(d.task, d.objects)
+        demo_objects = [shown(d.task, d.objects) for d in demos]
+        for d, objects in zip(demos, demo_objects):
             text += f"{observation_text(d.instruction, objects, workspace)}>{actions_text(d, objects)}, "
         query_objects = shown(query.task, query.objects)
+        if self.query_order == "first_demo" and demos:
+            order = order_like_demo(demo_objects[0], demos[0], query_objects, query)
+            query_objects = {label: query_objects[label] for label in order}
         text += observation_text(query.instruction, query_objects, workspace) + ">"
         messages = [{"role": "system", "content": self.system_prompt}] if self.system_prompt else []
         messages.append({"role": "user", "content": text})
-        anchors = tuple(tuple(float(v) for v in xyz) for xyz in query_objects.values()) if self.anchored else None
-        return Prompt(messages=messages, demos=list(demos), query=query, workspace=workspace, anchors=anchors)
+        if not self.anchored:
+            return Prompt(messages=messages, demos=list(demos), query=query, workspace=workspace)
+        return Prompt(
+            messages=messages, demos=list(demos), query=query, workspace=workspace,
+            anchors=points(query_objects), demo_anchors=tuple(points(o) for o in demo_objects),
+        )
 
 
 @hookimpl
