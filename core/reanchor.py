@@ -16,15 +16,15 @@ A demo or query without objects gives the demo's actions unchanged.
 
 from __future__ import annotations
 
-import math
 from typing import Mapping, Sequence
 
+from xicm.core.encoding import nearest_anchor
 from xicm.core.types import Demo, KeyAction, Query
 
 
 def nearest_name(objects: Mapping[str, Sequence[float]], point: Sequence[float]) -> str:
     """The key of `objects` whose position is nearest to `point` (the first on a tie)."""
-    return min(objects, key=lambda name: math.dist(objects[name], point))
+    return list(objects)[nearest_anchor(point, list(objects.values()))]
 
 
 def map_object(name: str, demo: Demo, query: Query) -> str:
