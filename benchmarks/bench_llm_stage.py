@@ -11,6 +11,9 @@ same real X-ICM prompts (prints figures; not a test). Modes:
     grammar_fill     grammar_reduced that stops decoding at a repeated action and writes the
                      repeat on to the token budget (llm.on_repeated_action: fill)
     grammar_draft64  grammar_reduced checking up to 64 guessed tokens per pass (llm.draft_tokens)
+    grammar_bf16     grammar_reduced with the dequantised weights, states and activations in
+                     bfloat16 (llm.dtype=bfloat16; the default is float32, which holds the GGUF's
+                     dequantised values exactly): half the bytes per forward pass, other numerics
     llamacpp_gemma   the same Gemma 3 270M GGUF on llama.cpp (llm=gemma3_270m_llamacpp: greedy,
                      action grammar, raw rendering, prefix reuse in llama-server's KV cache)
     llamacpp_qwen0_5b / llamacpp_qwen1_5b
@@ -108,6 +111,7 @@ MODES = {
     "grammar_cut": {"grammar": "actions", "reduced_output_layer": True, "on_repeated_action": "cut"},
     "grammar_fill": {"grammar": "actions", "reduced_output_layer": True, "on_repeated_action": "fill"},
     "grammar_draft64": {"grammar": "actions", "reduced_output_layer": True, "on_repeated_action": "decode", "draft_tokens": 64},
+    "grammar_bf16": {"grammar": "actions", "reduced_output_layer": True, "on_repeated_action": "decode", "dtype": "bfloat16"},
 }
 
 
@@ -248,6 +252,10 @@ def main() -> None:
     if "grammar_reduced" in modes and "llamacpp_gemma" in modes:
         same = sum(replies["grammar_reduced"][key] == replies["llamacpp_gemma"][key] for key in replies["llamacpp_gemma"])
         print(f"llamacpp_gemma replies identical to grammar_reduced (transformers, same GGUF): {same}/{n_calls}")
+    if "grammar_reduced" in modes and "grammar_bf16" in modes:
+        same = sum(replies["grammar_bf16"][key] == replies["grammar_reduced"][key] for key in replies["grammar_reduced"])
+        agree = sum(a == b for a, b in zip(parsed["grammar_bf16"], parsed["grammar_reduced"]))
+        print(f"grammar_bf16 replies identical to grammar_reduced (float32): {same}/{n_calls}; same parsed actions {agree}/{n_calls}")
     if "grammar" in modes and "grammar_reduced" in modes:
         same = replies["grammar"] == replies["grammar_reduced"]
         print(f"grammar_reduced replies identical to grammar (full vocabulary): {same}")

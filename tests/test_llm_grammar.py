@@ -151,6 +151,22 @@ def test_grammar_fast_loop_equals_grammar_constrained_generate(tiny_gemma_dir):
         assert re.fullmatch(ACTIONS_REGEX, free.complete_messages(messages)) is None  # the random model rambles
 
 
+def test_bfloat16_runs_the_grammar_fast_path(tiny_gemma_dir):
+    """llm.dtype=bfloat16 (Gemma's faster option): weights and the stored prefix in bfloat16 through
+    the reduced output layer, replies still grammar lists and repeatable, the dtype in identity()."""
+    from test_llm_fast_path import CALLS
+
+    llm = tiny(tiny_gemma_dir, dtype="bfloat16")
+    assert next(llm.loaded.model.parameters()).dtype == torch.bfloat16
+    replies = [llm.complete_messages(m) for m in CALLS]
+    assert all(re.fullmatch(ACTIONS_REGEX, r) for r in replies), replies
+    assert llm.generator.prefix_cache.reused_tokens > 0
+    assert all(keys.dtype == torch.bfloat16 for keys, _ in llm.generator.prefix_cache._states)
+    assert [tiny(tiny_gemma_dir, dtype="bfloat16").complete_messages(m) for m in CALLS] == replies
+    assert json.loads(llm.identity())["dtype"] == "bfloat16"
+    assert json.loads(tiny(tiny_gemma_dir).identity())["dtype"] == "float32"
+
+
 @pytest.fixture(scope="module")
 def repeating_dir(tmp_path_factory) -> Path:
     """A tiny Gemma 3 whose final norm outputs zeros: every logit ties, so it always picks the
