@@ -6,7 +6,10 @@ its own policy instance (built here, with the slot's simulator proxy: core/sim_p
 its own simulator process, so every episode runs exactly as it would alone. The slots' `act`
 calls meet in `Lockstep`: once every slot with an episode in progress is waiting for actions,
 `Policy.act_batch` answers them all at once (a remote policy sends its requests together, so
-a server that batches sees them together). Results are handed to the run loop (core/run_loop.py) in key order,
+a server that batches sees them together). A policy whose instances may act at the same time
+(`Policy.acts_concurrently`, X-ICM over an LLM server with several slots) skips the lockstep:
+each slot's thread calls its own instance's act, so the slots' LLM requests reach the server
+together and it decodes them in one batch, without waiting for the slowest slot's round. Results are handed to the run loop (core/run_loop.py) in key order,
 as the Ray shards do, from a bounded window of keys run ahead (core/keyed_window.py).
 """
 
@@ -68,7 +71,7 @@ class Lockstep:
 class SlotPolicy(Policy):
     """A slot's own policy whose act() goes through the lockstep."""
 
-    def __init__(self, inner: Policy, lockstep: Lockstep, slot: int):
+    def __init__(self, inner: Policy, lockstep: Lockstep | None, slot: int):
         self.inner, self.lockstep, self.slot = inner, lockstep, slot
 
     @property
@@ -82,6 +85,8 @@ class SlotPolicy(Policy):
         self.inner.reset(task, obs, rng)
 
     def act(self, obs):
+        if self.lockstep is None:  # acts_concurrently: straight to this slot's own instance
+            return self.inner.act(obs)
         return self.lockstep.act(self.slot, obs)
 
     def run_metadata(self) -> dict:
@@ -114,8 +119,11 @@ class BatchedEnvs:
                 sim.close()
             self.close()
             raise
-        self.lockstep = Lockstep([run.policy for run in self.runs])
+        concurrent = all(run.policy.acts_concurrently for run in self.runs)
+        self.lockstep = None if concurrent else Lockstep([run.policy for run in self.runs])
         self.metadata = {**self.runs[0].metadata(), "envs": n}
+        if concurrent:
+            self.metadata["envs_concurrent"] = True
         self.threads = [
             threading.Thread(target=self._slot, args=(i, SlotPolicy(run.policy, self.lockstep, i)), name=f"env-{i}", daemon=True)
             for i, run in enumerate(self.runs)
@@ -132,7 +140,8 @@ class BatchedEnvs:
     def _slot(self, slot: int, policy: SlotPolicy) -> None:
         from xicm.core.episode import run_episode
 
-        self.lockstep.join(slot)
+        if self.lockstep is not None:
+            self.lockstep.join(slot)
         try:
             while (key := self._take()) is not None:
                 result = run_episode(self.runs[slot].simulator, policy, *key, **self.options)
@@ -144,7 +153,8 @@ class BatchedEnvs:
                 self.error = exc
                 self.cond.notify_all()
         finally:
-            self.lockstep.leave(slot)
+            if self.lockstep is not None:
+                self.lockstep.leave(slot)
 
     def __call__(self, task: str, seed: int, episode: int) -> EpisodeResult:
         key = (task, int(seed), int(episode))

@@ -180,6 +180,10 @@ class LLM(ABC):
         call): only then does the response cache (llm_cache) answer for the model. A plugin
         declares it (a class attribute or a property)."""
 
+    #: how many requests the model serves at once (an LLM server's slots, decoded in one batch);
+    #: above 1, X-ICM's `envs=N` slots send their requests together (Policy.acts_concurrently)
+    concurrent_requests: int = 1
+
     def identity(self) -> str:
         """Model and decoding settings; part of the response-cache key."""
         return type(self).__name__
@@ -201,6 +205,11 @@ class Policy(ABC):
     #: False for policies that read the simulator's true state (the oracle): the runner then
     #: skips rendering a new observation between calls of `act` and passes the first one again.
     observes: bool = True
+
+    #: True when the instances built for the environments of an `envs=N` run may act at the same
+    #: time, each from its environment's thread (X-ICM over an LLM server with several slots: their
+    #: requests then reach the server together). False: one `act_batch` per round answers them all.
+    acts_concurrently: bool = False
 
     def on_episode(self, task: str, seed: int, episode: int) -> None:
         """Called before `reset` with the episode's identity (a remote policy sends it to its server)."""

@@ -6,7 +6,7 @@ import time
 import pytest
 from hydra import compose, initialize_config_module
 
-from xicm.core.batched_envs import BatchedEnvs, Lockstep
+from xicm.core.batched_envs import BatchedEnvs, Lockstep, SlotPolicy
 from xicm.core.checks import CheckInput, run_modes
 from xicm.core.plugins import get_registry
 from xicm.core.episode import run_episode
@@ -95,3 +95,46 @@ def test_two_environments_give_the_episodes_of_one(sim):
 
     assert [facts(r) for r in results] == [facts(r) for r in alone]
     assert all(r.success for r in alone)
+
+
+class Overlapping(Policy):
+    """Acts concurrently; records how many of its instances are inside act at once."""
+
+    acts_concurrently = True
+    inside = 0
+    most = 0
+    lock = threading.Lock()
+
+    def act(self, obs):
+        with Overlapping.lock:
+            Overlapping.inside += 1
+            Overlapping.most = max(Overlapping.most, Overlapping.inside)
+        time.sleep(0.2)
+        with Overlapping.lock:
+            Overlapping.inside -= 1
+        return [obs]
+
+
+def test_a_policy_that_acts_concurrently_skips_the_lockstep():
+    """Its slots call their own instance at the same time (no act_batch round), so two slots'
+    requests overlap; a Lockstep over such a policy would answer them one after the other."""
+    Overlapping.most = 0
+    slots = [SlotPolicy(Overlapping(), None, i) for i in range(2)]
+    answers = {}
+    threads = [threading.Thread(target=lambda i=i: answers.setdefault(i, slots[i].act(i))) for i in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=10)
+    assert answers == {0: [0], 1: [1]} and Overlapping.most == 2
+
+    Overlapping.most = 0
+    lockstep = Lockstep([Overlapping(), Overlapping()])
+    for i in range(2):
+        lockstep.join(i)
+    threads = [threading.Thread(target=lambda i=i: lockstep.act(i, i)) for i in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=10)
+    assert Overlapping.most == 1  # the default act_batch: one after the other

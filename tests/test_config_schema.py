@@ -328,7 +328,10 @@ def test_llamacpp_yaml_declares_every_llamacpp_option_with_its_default():
 
     from xicm.plugins.llms.llamacpp_options import LlamaCppOptions
 
-    declared = OmegaConf.to_container(OmegaConf.load(CONF / "llm" / "llamacpp.yaml"))
+    raw = OmegaConf.load(CONF / "llm" / "llamacpp.yaml")
+    assert OmegaConf.to_container(raw)["parallel"] == "${envs}"  # one server slot per environment of the run
+    # resolved as a run with one environment resolves it
+    declared = OmegaConf.to_container(OmegaConf.create({"envs": 1, "llm": raw}), resolve=True)["llm"]
     assert declared.pop("name") == "llamacpp"
     assert declared == OmegaConf.to_container(OmegaConf.structured(LlamaCppOptions))
 

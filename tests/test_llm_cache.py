@@ -133,3 +133,20 @@ def test_two_processes_write_concurrently(tmp_path):
     assert cache.get("p1-299") == "p1 reply 299"
     assert cache.get("p2-0") == "p2 reply 0"
     assert cache.get("shared-7") == "shared reply 7"
+
+
+def test_the_cache_says_how_many_requests_its_llm_serves_at_once(tmp_path):
+    """XICMPolicy reads concurrent_requests through the cache to decide whether its envs=N slots
+    act at the same time (Policy.acts_concurrently)."""
+    from xicm.plugins.policies.xicm.policy import XICMPolicy
+
+    serial, slotted = CountingLLM(), CountingLLM()
+    slotted.concurrent_requests = 3
+    cached = {name: CachedLLM(llm, tmp_path / "r.sqlite") for name, llm in (("serial", serial), ("slotted", slotted))}
+    assert cached["serial"].concurrent_requests == 1 and cached["slotted"].concurrent_requests == 3
+
+    def policy(llm):
+        return XICMPolicy(detector=None, retriever=None, prompt_builder=None, llm=llm, pool=[], workspace=WS)
+
+    assert not policy(cached["serial"]).acts_concurrently
+    assert policy(cached["slotted"]).acts_concurrently

@@ -124,6 +124,40 @@ def test_llms_of_one_process_share_one_server_started_from_any_thread(make_llm):
     assert replies[0] == replies[1]
 
 
+def test_two_slots_decode_two_requests_at_once(make_llm):
+    """llm.parallel=2: two requests sent together are in flight together (one started before the
+    other ended), each slot keeps its own prefix, and each request still has ctx_size tokens."""
+    import json
+    import threading
+    import urllib.request
+
+    queries = [f"['instruction': go {i}, {{'cube': [{i}, 1, 1]}}]>" for i in range(2)]
+    llms = [make_llm(parallel=2, ctx_size=2048, speculative="none") for _ in queries]
+    assert llms[0].concurrent_requests == 2
+    for llm in llms:
+        llm.start()
+    assert llms[0]._server is llms[1]._server
+    props = json.loads(urllib.request.urlopen(llms[0]._server.base_url + "/props", timeout=10).read())
+    assert props["total_slots"] == 2
+    spans: dict[int, tuple[float, float]] = {}
+
+    def ask(i: int) -> None:
+        t0 = time.perf_counter()
+        llms[i].complete_messages(messages(queries[i]))
+        spans[i] = (t0, time.perf_counter())
+
+    threads = [threading.Thread(target=ask, args=(i,)) for i in range(2)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    (start0, end0), (start1, end1) = spans[0], spans[1]
+    assert start1 < end0 and start0 < end1  # in flight together
+    assert all(llm.last_call["predicted_n"] > 0 for llm in llms)
+    again = llms[0].complete_messages(messages(queries[0]))  # the slot that served it still holds its prefix
+    assert llms[0].last_call["cache_n"] >= len(DEMOS) - 5
+
+
 def test_speculative_decoding_leaves_the_replies_as_they_are(make_llm):
     queries = [f"['instruction': go {i}, {{'cube': [{i}, 1, 1]}}]>" for i in range(3)]
     plain, drafted = make_llm(speculative="none"), make_llm(speculative="ngram-mod")

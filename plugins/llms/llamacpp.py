@@ -2,9 +2,11 @@
 
 Why a server the run starts rather than the in-process binding: docs/DESIGN.md ("The llama.cpp
 engine"). One server per process and model settings (each Ray actor has its own; the policies of
-an `envs=N` run, all in the driver process, share one), one slot, so consecutive prompts reuse their longest common prefix in the KV cache: the
-X-ICM prompt puts the system message and the demos first, so the calls of an episode, and the
-episodes that share their demos, prefill only what changed.
+an `envs=N` run, all in the driver process, share one), `parallel` slots (default one), so
+consecutive prompts reuse their longest common prefix in a slot's KV cache and llama-server's
+host-memory prompt cache (--cache-ram) restores a prefix another prompt evicted: the X-ICM prompt
+puts the system message and the demos first, so the calls of an episode, and the episodes that
+share their demos, prefill only what changed.
 
 Options (config keys):
 
@@ -16,6 +18,13 @@ binary (None)
 threads (2), ctx_size (8192)
     llama-server's --threads/--threads-batch and --ctx-size. A prompt that does not fit in
     ctx_size - max_tokens stops the run at its first call with one sentence.
+parallel (1)
+    llama-server's slots (--parallel): requests served at once, decoded together in one batch
+    (continuous batching), each slot keeping its own cached prefix; the KV buffer is one pool of
+    parallel x ctx_size tokens. In an `envs=N` run, parallel > 1 lets the N environments' X-ICM
+    policies send their requests at the same time (Policy.acts_concurrently) instead of one by
+    one; use parallel = envs. Greedy replies can differ in the last bits under batching (the
+    batch's kernels sum in another order): measured in benchmarks/bench_llm_stage.py.
 chat_template ("model")
     ``model``: the chat endpoint with the GGUF's own chat template (llama-server --jinja).
     ``plain`` / ``raw``: the completion endpoint with xicm's renderings (rendering.py; ``raw``
@@ -81,7 +90,7 @@ class LlamaCppLLM(LLM):
             raise ConfigError("llm 'llamacpp' needs llm.model: a catalogued model name or a .gguf path")
         self.model = str(o.model)
         self.binary = o.binary
-        self.threads, self.ctx_size = o.threads, o.ctx_size
+        self.threads, self.ctx_size, self.parallel = o.threads, o.ctx_size, o.parallel
         self.chat_template = o.chat_template
         self.sampling = {"temperature": float(o.temperature), "top_p": float(o.top_p), "top_k": o.top_k,
                          "repeat_penalty": float(o.repeat_penalty), "repeat_last_n": o.repeat_last_n,
@@ -129,7 +138,7 @@ class LlamaCppLLM(LLM):
 
         path = self.model_path()
         self._server = shared_server(llama_server_binary(self.binary), path, self.threads, self.ctx_size,
-                                     self.server_args, self.startup_timeout_s)
+                                     self.server_args, self.startup_timeout_s, self.parallel)
         chat = self.chat_template == "model"
         self._client = OpenAICompatibleLLM(OpenAICompatibleOptions(
             model=path.name, base_url=self._server.base_url + "/v1", mode="chat" if chat else "completion",
@@ -153,6 +162,10 @@ class LlamaCppLLM(LLM):
         return state
 
     # ------------------------------------------------------------------ replies
+    @property
+    def concurrent_requests(self) -> int:  # type: ignore[override]
+        return self.parallel
+
     @property
     def deterministic(self) -> bool:
         """Greedy, or sampling from a fixed seed: the same prompt gets the same reply."""

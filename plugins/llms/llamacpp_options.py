@@ -14,6 +14,7 @@ class LlamaCppOptions:
     model: Optional[str] = None  # required: a catalogued name or a .gguf path
     binary: Optional[str] = None
     threads: int = field(default=2, metadata=at_least(1))
+    parallel: int = field(default=1, metadata=at_least(1))  # server slots: requests decoded in one batch
     ctx_size: int = field(default=8192, metadata=at_least(256))
     chat_template: str = field(default="model", metadata=one_of(*CHAT_TEMPLATES))
     temperature: float = field(default=0.0, metadata=at_least(0))

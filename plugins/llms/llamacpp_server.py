@@ -120,14 +120,15 @@ _shared_lock = threading.Lock()
 
 
 def shared_server(binary: Path, model: Path, threads: int, ctx_size: int, extra_args: list[str],
-                  startup_timeout_s: float) -> "LlamaServer":
+                  startup_timeout_s: float, parallel: int = 1) -> "LlamaServer":
     """This process's running server of that model and settings, started when there is none: the
     policies of an `envs=N` run (one process, one policy per slot) share one engine."""
-    key = (str(binary), str(model), int(threads), int(ctx_size), tuple(extra_args))
+    key = (str(binary), str(model), int(threads), int(ctx_size), tuple(extra_args), int(parallel))
     with _shared_lock:
         server = _shared.get(key)
         if server is None or not server.running():
-            server = _shared[key] = LlamaServer(binary, model, threads, ctx_size, extra_args, startup_timeout_s).start()
+            server = _shared[key] = LlamaServer(binary, model, threads, ctx_size, extra_args, startup_timeout_s,
+                                                parallel).start()
         return server
 
 
@@ -139,13 +140,16 @@ def _die_with_parent() -> None:  # runs in the child between fork and exec
 
 
 class LlamaServer:
-    """One llama-server on 127.0.0.1 serving one GGUF with one slot (so consecutive requests
-    reuse the longest common prompt prefix in its KV cache)."""
+    """One llama-server on 127.0.0.1 serving one GGUF with `parallel` slots. Each slot keeps its
+    last prompt in the KV cache, so a request reuses the longest common prefix of the slot it is
+    given (llama-server picks the idle slot whose cached prompt is most alike); with several
+    slots the KV buffer is one pool of `parallel` x `ctx_size` tokens (--kv-unified), each
+    request still limited to ctx_size, and requests in flight together are decoded in one batch."""
 
     def __init__(self, binary: Path, model: Path, threads: int, ctx_size: int, extra_args: list[str] | None = None,
-                 startup_timeout_s: float = 120.0):
+                 startup_timeout_s: float = 120.0, parallel: int = 1):
         self.binary, self.model = Path(binary), Path(model)
-        self.threads, self.ctx_size = int(threads), int(ctx_size)
+        self.threads, self.ctx_size, self.parallel = int(threads), int(ctx_size), int(parallel)
         self.extra_args = [str(a) for a in (extra_args or [])]
         self.startup_timeout_s = float(startup_timeout_s)
         self.process: subprocess.Popen | None = None
@@ -160,9 +164,15 @@ class LlamaServer:
     def argv(self, port: int) -> list[str]:
         return [
             str(self.binary), "--model", str(self.model), "--host", "127.0.0.1", "--port", str(port),
-            "--threads", str(self.threads), "--threads-batch", str(self.threads), "--ctx-size", str(self.ctx_size),
-            "--parallel", "1", "--jinja", "--no-webui", *self.extra_args,
+            "--threads", str(self.threads), "--threads-batch", str(self.threads), *self.slot_args(),
+            "--jinja", "--no-webui", *self.extra_args,
         ]
+
+    def slot_args(self) -> list[str]:
+        if self.parallel == 1:
+            return ["--ctx-size", str(self.ctx_size), "--parallel", "1"]
+        return ["--ctx-size", str(self.ctx_size * self.parallel), "--parallel", str(self.parallel),
+                "--kv-unified", "--kv-unified-per-slot", str(self.ctx_size)]
 
     def start(self) -> LlamaServer:
         if self.running():

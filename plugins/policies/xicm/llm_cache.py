@@ -135,5 +135,9 @@ class CachedLLM(LLM):
         return self.llm.identity()
 
     @property
+    def concurrent_requests(self) -> int:  # type: ignore[override]
+        return int(getattr(self.llm, "concurrent_requests", 1))
+
+    @property
     def deterministic(self) -> bool:
         return bool(self.llm.deterministic)

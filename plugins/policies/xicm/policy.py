@@ -36,6 +36,11 @@ class XICMPolicy(Policy):
     def __post_init__(self) -> None:
         self._start("", np.random.default_rng(0))
 
+    @property
+    def acts_concurrently(self) -> bool:  # type: ignore[override]
+        """An LLM that serves several requests at once gets the envs=N slots' requests together."""
+        return int(getattr(self.llm, "concurrent_requests", 1)) > 1
+
     def reset(self, task: str, obs: Observation, rng: np.random.Generator) -> None:
         self._start(task, rng)
 
