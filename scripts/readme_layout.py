@@ -28,7 +28,7 @@ FOLDERS_WITHOUT_PACKAGE = {
     "tests": "The pytest suite (`-m \"not slow\"`: the fast lane; see Tests) and its helpers (tiny models, a kinematic simulator)",
     "benchmarks": "Scripts that print performance figures (not timed tests)",
     "scripts": "Set-up, main job and tests (setup.sh, main.sh, test.sh), and readme_layout.py, which writes this section",
-    "docs": "The design (DESIGN.md), the plugin author's reference (plugins.md), DATASET.md, AGNOSTOS.md, VLA.md, CLUSTER.md",
+    "docs": "The design (DESIGN.md), a guide per track (guides/), the plugin author's guide (plugin-authors.md) and the reference pages (reference/)",
     "examples": "xicm-object-overlap: an external plugin package (entry point + conf via a Hydra SearchPathPlugin)",
 }
 MARKERS = {  # file -> (begin, end) lines around its generated block

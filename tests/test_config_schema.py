@@ -274,7 +274,7 @@ def test_every_experiment_passes_every_schema(name):
 
 
 def test_the_paper_presets_select_demos_as_xicm_does():
-    """Image-only features ranked by the raw dot product (docs/AGNOSTOS.md, the selection row)."""
+    """Image-only features ranked by the raw dot product (docs/reference/protocol-and-fidelity.md, the selection row)."""
     for name in ("paper_table2", "ablation_k", "ablation_llm"):
         cfg = _compose([f"+experiment={name}"])
         assert (cfg.retriever.name, cfg.retriever.score) == ("dynamics", "dot"), name

@@ -1,4 +1,4 @@
-"""The HDF5 demonstration pool (core/dataset.py, docs/DATASET.md)."""
+"""The HDF5 demonstration pool (core/dataset.py, docs/reference/dataset.md)."""
 
 import os
 import signal
@@ -104,7 +104,7 @@ def test_readable_with_plain_h5py(tmp_path):
     d = make_demo("stack_blocks", 2, 5)
     with DemoWriter(path, WS) as w:
         w.write(d)
-    with h5py.File(path, "r") as f:  # only what docs/DATASET.md describes
+    with h5py.File(path, "r") as f:  # only what docs/reference/dataset.md describes
         assert f.attrs["format_version"] == 1
         np.testing.assert_allclose(f.attrs["workspace_low"], WS[0])
         np.testing.assert_allclose(f.attrs["workspace_high"], WS[1])
@@ -205,11 +205,11 @@ def test_missing_file_and_wrong_workspace(tmp_path):
 
 
 def test_docs_snippet_reads_a_pool(tmp_path, monkeypatch, capsys):
-    """The plain-h5py example in docs/DATASET.md runs on a real pool file."""
+    """The plain-h5py example in docs/reference/dataset.md runs on a real pool file."""
     import pathlib
     import re
 
-    doc = (pathlib.Path(__file__).parents[1] / "docs" / "DATASET.md").read_text()
+    doc = (pathlib.Path(__file__).parents[1] / "docs" / "reference" / "dataset.md").read_text()
     snippet = re.search(r"```python\n(.*?)```", doc, re.S).group(1)
     with DemoWriter(tmp_path / "pool.h5", WS) as w:
         w.write(make_demo("close_jar", 0, 3))

@@ -31,14 +31,14 @@ def test_launcher_configs_compose(launcher, target):
 
 
 def test_the_slurm_overrides_of_docs_cluster_compose():
-    """The command in docs/CLUSTER.md "SLURM (submitit)" (SLURM itself cannot run here)."""
+    """The command in docs/guides/clusters.md "SLURM (submitit)" (SLURM itself cannot run here)."""
     pytest.importorskip("hydra_plugins.hydra_submitit_launcher")
     overrides = ["hydra/launcher=submitit_slurm", "hydra.launcher.partition=cpu", "hydra.launcher.timeout_min=600",
                  "hydra.launcher.cpus_per_task=4", "hydra.launcher.mem_gb=16", "hydra.launcher.array_parallelism=32",
                  'hydra.launcher.setup=["source /abs/xicm/.venv/bin/activate","export XICM_DATA=/shared/data"]',
                  "hydra.launcher.max_num_timeout=3", "+hydra.launcher.additional_parameters={mail-type:END}",
                  "benchmark=agnostos"]
-    doc = (Path(__file__).parents[1] / "docs" / "CLUSTER.md").read_text()
+    doc = (Path(__file__).parents[1] / "docs" / "guides" / "clusters.md").read_text()
     assert all(o.split("=")[0] in doc for o in overrides)
     with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
         launcher = compose("config", overrides=overrides, return_hydra_config=True).hydra.launcher

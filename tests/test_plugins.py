@@ -191,7 +191,7 @@ def test_docs_list_every_hook_and_every_interface_method_with_its_signature():
 
     from xicm.core import interfaces
 
-    doc = (Path(__file__).parents[1] / "docs" / "plugins.md").read_text()
+    doc = (Path(__file__).parents[1] / "docs" / "plugin-authors.md").read_text()
     for name, f in inspect.getmembers(hookspecs, inspect.isfunction):
         if name.startswith("register_"):
             assert f"`{name}(register)`" in doc, name
@@ -202,11 +202,11 @@ def test_docs_list_every_hook_and_every_interface_method_with_its_signature():
         for name, f in vars(cls).items():
             if isinstance(f, property):  # a declared value (LLM.deterministic): `name -> type`
                 returns = inspect.signature(f.fget).return_annotation
-                assert f"`{name} -> {returns}`" in doc, f"{cls.__name__}.{name} is not documented in docs/plugins.md"
+                assert f"`{name} -> {returns}`" in doc, f"{cls.__name__}.{name} is not documented in docs/plugin-authors.md"
             elif callable(f) and not name.startswith("_"):
                 sig = str(inspect.signature(f)).replace("'", "")
                 sig = re.sub(r"^\(self,? ?", "(", sig)
-                assert f"`{name}{sig}`" in doc, f"{cls.__name__}.{name}{sig} is not documented in docs/plugins.md"
+                assert f"`{name}{sig}`" in doc, f"{cls.__name__}.{name}{sig} is not documented in docs/plugin-authors.md"
 
 
 

@@ -136,7 +136,7 @@ def test_ray_nearest_demo_run_matches_a_local_run(smoke_pool, tmp_path):
     _eval(*common, "hydra.run.dir=local", cwd=tmp_path)
     output = _eval(*common, *RAY, "hydra.run.dir=sharded", cwd=tmp_path)
     # Not `responses` beyond the first prompt's: replies after contact can move by one 1-cm bin with
-    # the PhysX solver's history (which episodes a process ran before), docs/DESIGN.md "Scale-out".
+    # the PhysX solver's history (which episodes a process ran before), docs/reference/internals.md "Scale-out".
     fields = SAME + ("retrieved", "prompt_hash")
     local, sharded = _rows(tmp_path / "local"), _rows(tmp_path / "sharded")
     assert len(local) == 3 and all(r["responses"] and r["prompt_hash"] for r in local)

@@ -218,7 +218,7 @@ def test_a_whole_observation_survives_the_wire(sim):
 
 
 def test_an_image_mapping_on_the_command_line_replaces_the_default_whole():
-    """docs/VLA.md's commands map two cameras on the command line; Hydra would refuse a new key
+    """docs/guides/vla-evaluation.md's commands map two cameras on the command line; Hydra would refuse a new key
     merged into a default mapping, and a merge would keep a camera the user left out."""
     from hydra import compose, initialize_config_module
 

@@ -42,7 +42,7 @@ def test_an_unknown_scenes_value_is_one_sentence():
 
 # The tasks whose scenes name RLBench's range (Task.span) or its fixed layout (turn_oven_on's knob
 # start, straighten_rope's rope and zones, put_rubbish_in_bin's swap; issue 31 item 4);
-# docs/AGNOSTOS.md lists the same.
+# docs/reference/protocol-and-fidelity.md lists the same.
 RLBENCH_RANGE_TASKS = {
     "lamp_on", "lamp_off", "take_usb_out_of_computer", "take_plate_off_colored_dish_rack",
     "put_groceries_in_cupboard", "place_shape_in_shape_sorter", "beat_the_buzz",

@@ -1,5 +1,5 @@
 """One OpenAI-compatible LLM server shared by the Ray-sharded simulator workers of one evaluation
-(the vLLM-on-a-GPU-node set-up of README "Scale-out"), with a scripted server on 127.0.0.1."""
+(the vLLM-on-a-GPU-node set-up of docs/guides/serving.md, "One LLM server for many simulator workers"), with a scripted server on 127.0.0.1."""
 
 import json
 import os

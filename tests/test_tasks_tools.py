@@ -216,7 +216,7 @@ def test_water_plants_upright_can_carried_through_the_pour_point_and_dropped_is_
 
 def test_water_plants_can_dropped_with_its_tip_off_the_pour_point_is_not_a_success(physics_sim):
     """The can rests on the pot, its tip 14 cm off the pot's axis: no drops (upstream's earlier
-    clause, the can itself in the pot's sensor, is not followed: docs/AGNOSTOS.md)."""
+    clause, the can itself in the pot's sensor, is not followed: docs/reference/protocol-and-fidelity.md)."""
     task = drop_can_above_the_pot(physics_sim, 0)
     assert not task.poured and task.drops_in_pot() == 0
     assert not physics_sim.is_success()

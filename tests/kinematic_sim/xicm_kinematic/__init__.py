@@ -34,7 +34,7 @@ class KinematicOptions:
 
 
 def create_simulator(options: KinematicOptions, *, tasks):
-    """The registry hands a plugin with a schema one instance of it (docs/plugins.md)."""
+    """The registry hands a plugin with a schema one instance of it (docs/plugin-authors.md)."""
     from dataclasses import asdict
 
     from .simulator import KinematicSimulator
