@@ -1,7 +1,9 @@
-"""The results page over a results folder of committed run folders (`xicm-report --results-page
-results/`): per setting (a folder of run folders) every row's successes, Wilson 95 % interval and
-Level-1 / Level-2 split, its exact McNemar test against the run settings.yaml pairs it with, the
-command that ran it, and the best row marked; written as <results>/README.md and index.html.
+"""The results page of a folder of committed runs (`xicm-report --results-page results/`): its
+README.md and index.html, the best row per setting and every row's figures, paired test and command.
+
+Per setting (a folder of run folders) each row has its successes, Wilson 95 % interval and
+Level-1 / Level-2 split, the exact McNemar test against the run settings.yaml pairs it with and
+the command that ran it; the best row is marked.
 
 Every figure comes from the run folders through core/run_dir.py and the report's own functions
 (table2.pooled, paired.paired_comparison); settings.yaml (report/results_settings.py) only names
