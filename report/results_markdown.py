@@ -76,6 +76,14 @@ def other_pairings(setting: dict[str, Any]) -> list[tuple[str, str | None, list[
     return [(run, why, sorted(names)) for run, (why, names) in sorted(groups.items())]
 
 
+def baseline_text(setting: dict[str, Any]) -> str:
+    if setting["baseline"]:
+        return f"baseline `{setting['baseline']}`."
+    if setting["declared_baseline"]:
+        return f"its baseline `{setting['declared_baseline']}` is not among its readable rows, so no paired tests."
+    return "no baseline declared in settings.yaml, so no paired tests."
+
+
 def differs_text(row: dict[str, Any]) -> str:
     p = row["paired"]
     if p is None or p["differs"] is None:
@@ -141,13 +149,13 @@ def page_markdown(page: dict[str, Any]) -> str:
 
 
 def _setting(s: dict[str, Any]) -> list[str]:
-    out = ["", f"### [{s['name']}]({s['link']})", "", " · ".join(s["facts"]) + "; "
-           + (f"baseline `{s['baseline']}`." if s["baseline"] else "no baseline declared in settings.yaml, so no paired tests.")]
+    out = ["", f"### [{s['name']}]({s['link']})", "", " · ".join(s["facts"]) + "; " + baseline_text(s)]
     levels = ["Level-1", "Level-2"] if s["has_levels"] else []
     body = [[mark(r), _row_link(r, bold=r["best"]), r["method"], counts(r), percent(r), interval(r),
              *(level(r, name) for name in levels), *paired_cells(r)] for r in s["rows"]]
-    out += ["", *_table(["", "row", "acts", "successes / episodes", "%", "Wilson 95 %", *levels, "paired with",
-                         "common episodes", "row / it", "only row / only it", "exact McNemar p"], body, TEXT_COLUMNS)]
+    if body:
+        out += ["", *_table(["", "row", "acts", "successes / episodes", "%", "Wilson 95 %", *levels, "paired with",
+                             "common episodes", "row / it", "only row / only it", "exact McNemar p"], body, TEXT_COLUMNS)]
     for run, why, names in other_pairings(s):
         out += ["", f"Paired with `{run}` instead of the baseline: {', '.join(f'`{n}`' for n in names)}"
                 + (f" ({_escape(why)})." if why else ".")]

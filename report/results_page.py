@@ -83,11 +83,15 @@ def _read_run(root: Path, run: RunDir) -> dict[str, Any]:
         raise RunUnreadable(f"its {META} cannot be read as JSON ({exc})") from None
     if not isinstance(meta, dict) or not isinstance(meta.get("tasks"), list) or not isinstance(meta.get("splits"), dict):
         raise RunUnreadable(f"its {META} lacks the run's tasks and splits")
-    bad = run.corrupt_episode_lines()
+    try:
+        bad = run.corrupt_episode_lines()
+        episodes = run.read_episodes()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RunUnreadable(f"its {EPISODES} cannot be read as text ({exc})") from None
     if bad:
         more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
         raise RunUnreadable(f"line {bad[0]}{more} of its {EPISODES} is not one JSON row")
-    for number, row in enumerate(run.read_episodes(), 1):
+    for number, row in enumerate(episodes, 1):
         absent = [k for k in ROW_KEYS if k not in row]
         if absent:
             raise RunUnreadable(f"row {number} of its {EPISODES} has no {absent[0]!r}")
@@ -165,6 +169,7 @@ def _setting(root: Path, name: str, runs: list[dict[str, Any]], decl: SettingDec
         "link": f"{name}/",
         "facts": _facts(runs),
         "baseline": decl.baseline if decl.baseline in by_name else None,
+        "declared_baseline": decl.baseline,
         "rows": rows,
         "best": ranked[0] if ranked else None,
         "has_levels": has_levels,
@@ -240,6 +245,9 @@ def _differs(row: list[str] | None, base: list[str] | None) -> list[str] | None:
 def _facts(runs: list[dict[str, Any]]) -> list[str]:
     """What the setting's rows were run with, from their configs: benchmark, tasks by split,
     experiment, K and retrievers (several values where the rows differ)."""
+    if not runs:
+        return ["no readable run folder"]
+
     def values(get) -> str:
         found = sorted({str(v) for v in map(get, runs) if v is not None})
         return ", ".join(found)
@@ -247,8 +255,8 @@ def _facts(runs: list[dict[str, Any]]) -> list[str]:
     def config(run):
         return run["meta"].get("config") or {}
 
-    def xicm_only(get):
-        return lambda run: get(config(run)) if (config(run).get("policy") or {}).get("name") == "xicm" else None
+    def xicm_only(get):  # keys of the X-ICM policy (the oracle has no K, no retrieval)
+        return lambda run: get(run) if (config(run).get("policy") or {}).get("name") == "xicm" else None
 
     tasks = {t: run["meta"]["splits"].get(t, "?") for run in runs for t in run["meta"]["tasks"]}
     by_split: dict[str, int] = {}
@@ -260,10 +268,10 @@ def _facts(runs: list[dict[str, Any]]) -> list[str]:
              f"{len(tasks)} tasks ({split_text})"]
     if experiment:
         facts.append(f"experiment {experiment}")
-    k = values(xicm_only(lambda c: (c.get("policy") or {}).get("k")))
+    k = values(xicm_only(lambda run: (config(run).get("policy") or {}).get("k")))
     if k:
         facts.append(f"K = {k}")
-    retrievers = values(lambda run: _choice("retriever", config(run), run["overrides"]) if config(run).get("policy", {}).get("name") == "xicm" else None)
+    retrievers = values(xicm_only(lambda run: _choice("retriever", config(run), run["overrides"])))
     if retrievers:
         facts.append(f"retriever {retrievers}")
     return facts

@@ -344,3 +344,16 @@ def test_the_page_needs_one_folder(tmp_path, capsys):
     with pytest.raises(SystemExit) as done:
         report_main(["--results-page", str(tmp_path / "none")])
     assert done.value.code == 2 and "is not a folder" in capsys.readouterr().err
+
+
+def test_a_declared_setting_without_runs_and_an_unreadable_file_are_said_so(results):
+    root, _, _ = results
+    settings = yaml.safe_load((root / "settings.yaml").read_text())
+    settings["settings"]["agnostos/gone"] = {"baseline": "nearest_demo"}
+    write_atomic(root / "settings.yaml", yaml.safe_dump(settings))
+    write_atomic(RunDir(root / "agnostos/seen-k4/qwen").episodes, b"\xff\xfe\x00 not text\n")
+    text = page_markdown(build_page(root))
+    assert "| [agnostos/gone](agnostos/gone/) | no rows |" in text
+    assert "no readable run folder; its baseline `nearest_demo` is not among its readable rows, so no paired tests.\n\n" in text
+    assert "Note: settings.yaml names nearest_demo, which is not a readable run folder of this setting." in text
+    assert "- `agnostos/seen-k4/qwen`: its episodes.jsonl cannot be read as text (" in text
