@@ -135,6 +135,25 @@ class RunDir:
                 continue
         return rows
 
+    def corrupt_episode_lines(self) -> list[int]:
+        """Line numbers (from 1) of episodes.jsonl lines that read_episodes drops but a kill cannot
+        explain: every line ended by a newline that is not one JSON object. (A torn last line, with
+        no newline after it, is a killed write and is not listed.)"""
+        if not self.episodes.exists():
+            return []
+        lines = self.episodes.read_text(encoding="utf-8").split("\n")[:-1]  # the text after the last newline is the tail
+        bad = []
+        for number, line in enumerate(lines, 1):
+            if not line.strip():
+                continue
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:
+                row = None
+            if not isinstance(row, dict):
+                bad.append(number)
+        return bad
+
     def rows(self, meta: dict[str, Any] | None = None) -> list[dict[str, Any]]:
         """The episodes its config asks for (run.json's tasks, seeds and episodes).
 

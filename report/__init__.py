@@ -2,7 +2,16 @@
 sweeps, merged and paired reports, and the HTML pages and their figures (`xicm-report`).
 
 The tables need numpy and scipy only; the pages and plots need jinja2 and matplotlib, the
-`report` extra, imported through `require` so a missing one is one sentence, not a traceback."""
+`report` extra, imported through `require` so a missing one is one sentence, not a traceback.
+
+The results page, results/README.md and results/index.html (report/results_page.py), is rebuilt
+from the committed run folders, from the repository root, with
+
+    xicm-report --results-page results/
+
+after adding or changing a row (a run folder under results/<setting>/); results/settings.yaml
+names each setting's baseline and the rows paired with another run. Commit the page with the
+rows: tests/test_results_page.py fails while the committed page differs from what the rows give."""
 
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
 """xicm-report: the success table of finished or partial xicm-eval runs, sweeps over several,
-merged and paired reports, and the HTML pages (those need the `report` extra)."""
+merged and paired reports, the results page of a results folder, and the HTML pages (those need
+the `report` extra)."""
 
 from __future__ import annotations
 
@@ -33,6 +34,12 @@ def report_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--paired", action="store_true",
         help="instead, compare two runs DIR_A DIR_B on the episodes both hold: per-task counts and the exact McNemar test",
+    )
+    parser.add_argument(
+        "--results-page", action="store_true",
+        help="instead, write the results page of one results folder DIR (e.g. results/): DIR/README.md and DIR/index.html, "
+        "every row of every setting with its interval, paired test and command, the best row marked (DIR/settings.yaml "
+        "names each setting's baseline)",
     )
     parser.add_argument(
         "--episodes", type=_episode_range, default=None, metavar="FIRST:STOP",
@@ -93,6 +100,23 @@ def _print_paired(dirs: list[str], episodes: range | None) -> None:
     print(paired_markdown(paired_comparison(*rows, episodes=episodes), dirs[0], dirs[1]))
 
 
+def _write_results_page(dirs: list[str]) -> None:
+    from xicm.report.results_page import write_results_page
+
+    if len(dirs) != 1:
+        _fail(XicmError(f"--results-page writes the page of one results folder, not {len(dirs)}: xicm-report --results-page results/"))
+    if not Path(dirs[0]).is_dir():
+        _fail(XicmError(f"{dirs[0]} is not a folder: xicm-report --results-page takes the folder of committed runs (results/)"))
+    try:
+        page, paths = write_results_page(Path(dirs[0]))
+    except (XicmError, OSError) as exc:
+        _fail(XicmError(str(exc)))
+    for item in page["skipped"]:
+        print(f"left off the page: {item['path']}: {item['reason']}")
+    rows = sum(len(s["rows"]) for s in page["settings"])
+    print(f"written: {', '.join(map(str, paths))} ({len(page['settings'])} settings, {rows} rows)")
+
+
 def main(argv: list[str] | None = None) -> None:
     """xicm-report DIR [DIR ...] [--html] | --merge OUT_DIR RUN_DIR [RUN_DIR ...] (see report_parser)."""
     try:
@@ -106,6 +130,9 @@ def _report(argv: list[str] | None) -> None:
     from xicm.core.run_dir import EPISODES, META, REPORT_FILES, RunDir, find_runs
 
     args = report_parser().parse_args(argv)
+    if args.results_page:
+        _write_results_page(args.dirs)
+        return
     if args.paired:
         _print_paired(args.dirs, args.episodes)
         return

@@ -76,7 +76,7 @@ def test_report_command_has_help_and_refuses_a_folder_without_runs(tmp_path, cap
     with pytest.raises(SystemExit) as done:
         report_main(["--help"])
     usage = " ".join(capsys.readouterr().out.split())  # argparse wraps the usage line at the terminal's width
-    assert done.value.code == 0 and "usage: xicm-report [-h] [--merge OUT_DIR] [--html] [--paired] [--episodes FIRST:STOP] [--pool PATH]" in usage
+    assert done.value.code == 0 and "usage: xicm-report [-h] [--merge OUT_DIR] [--html] [--paired] [--results-page] [--episodes FIRST:STOP] [--pool PATH]" in usage
     with pytest.raises(SystemExit) as done:
         report_main([])
     assert done.value.code == 2 and "the following arguments are required: DIR" in capsys.readouterr().err
