@@ -22,7 +22,7 @@ from xicm.core.errors import ConfigError, LLMError
 from xicm.core.parsing import parse_actions
 from xicm.core.schema import check_options
 from xicm.plugins.llms import llamacpp_server
-from xicm.plugins.llms.action_grammar import ACTIONS_REGEX, ANCHORED_REGEX
+from xicm.plugins.llms.action_grammar import ACTIONS_REGEX, ANCHORED_REGEX, reply_regex
 from xicm.plugins.llms.llamacpp import LlamaCppLLM
 from xicm.plugins.llms.llamacpp_options import LlamaCppOptions
 
@@ -82,6 +82,20 @@ def test_the_grammar_holds_replies_to_the_action_list(make_llm):
     assert re.fullmatch(ACTIONS_REGEX, reply), reply
     assert len(parse_actions(reply, WS)) >= 1
     assert not re.fullmatch(ACTIONS_REGEX, free.complete_messages(messages(query)))  # random weights: noise
+
+
+def test_max_actions_ends_the_list_there(make_llm):
+    """The tiny model's unbounded replies run to the token budget (max_tokens 800: many actions);
+    llm.max_actions=2 lets the grammar close the list after two, in fewer decoded tokens."""
+    query = messages("['instruction': lift it, {'cube': [9, 9, 9]}]>")
+    free, bounded = make_llm(), make_llm(max_actions=2)
+    long = free.complete_messages(query)
+    short = bounded.complete_messages(query)
+    assert len(parse_actions(long, WS)) > 2, long
+    assert re.fullmatch(reply_regex(False, 2), short), short
+    assert parse_actions(short, WS) == parse_actions(long, WS)[:2]  # greedy: the same first two
+    assert bounded.last_call["predicted_n"] < free.last_call["predicted_n"]
+    assert '"max_actions": 2' in bounded.identity() and "max_actions" not in free.identity()
 
 
 def test_a_prompt_with_anchored_actions_gets_the_anchored_grammar(make_llm):

@@ -405,6 +405,30 @@ def test_the_grammar_goes_in_the_servers_structured_output_field(fake, server, e
         assert isinstance(parse_actions(reply, WS), ParseError)
 
 
+def test_max_actions_bounds_the_list_in_every_servers_field(fake):
+    import re
+
+    from xicm.plugins.llms.action_grammar import reply_gbnf, reply_regex
+
+    two = "[[1, 2, 3, 0, 0, 0, 1], [4, 5, 6, 0, 0, 0, 0]]"
+    assert re.fullmatch(reply_regex(False, 2), two) and not re.fullmatch(reply_regex(False, 1), two)
+    assert re.fullmatch(reply_regex(False, 26), two) and reply_regex(False, 26) == ACTIONS_REGEX
+    assert "{0,1}" in reply_gbnf(False, 2).splitlines()[0] and reply_gbnf(False, None) == ACTIONS_GBNF
+    for server, path in (("vllm", ("structured_outputs", "regex")), ("sglang", ("regex",)), ("llamacpp", ("grammar",))):
+        bounded = llm(fake, server=server, max_actions=2)
+        bounded.complete(make_prompt())
+        field = fake.requests[-1]["body"]
+        for key in path:
+            field = field[key]
+        assert field == (reply_gbnf(False, 2) if server == "llamacpp" else reply_regex(False, 2))
+        assert json.loads(bounded.identity())["max_actions"] == 2
+    assert "max_actions" not in json.loads(llm(fake, server="vllm").identity())
+    from xicm.core.schema import check_options
+
+    with pytest.raises(ConfigError, match="max_actions"):  # checked with the config, before a run starts
+        check_options({"model": "m", "max_actions": 27}, OpenAICompatibleOptions, "llm", "llm 'openai_compatible'")
+
+
 def test_grammar_none_sends_no_field_and_keeps_the_identity(fake):
     free = llm(fake, grammar="none")
     free.complete(make_prompt())

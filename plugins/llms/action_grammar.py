@@ -30,18 +30,22 @@ _ACTION = r"\[" + ", ".join([_POSITION] * 3 + [_ROTATION] * 3 + [_GRIPPER]) + r"
 _ANCHORED = r"\[" + ", ".join([_OBJECT] + [_OFFSET] * 3 + [_ROTATION] * 3 + [_GRIPPER]) + r"\]"
 
 
-def _list_regex(action: str) -> str:
-    return r" ?\[" + action + r"(?:, " + action + "){0," + str(MAX_ACTIONS - 1) + r"}\]"
+def _list_regex(action: str, max_actions: int = MAX_ACTIONS) -> str:
+    return r" ?\[" + action + r"(?:, " + action + "){0," + str(max_actions - 1) + r"}\]"
 
 
 #: the reply as a regular expression (Python / Rust regex syntax, no anchors: the whole reply matches)
 ACTIONS_REGEX = _list_regex(_ACTION)
 ANCHORED_REGEX = _list_regex(_ANCHORED)
 
+def _root_gbnf(max_actions: int) -> str:
+    return f'root ::= " "? "[" action (", " action){{0,{max_actions - 1}}} "]"'
+
+
 #: the same language in llama.cpp's GBNF (grammars/README.md of llama.cpp)
 ACTIONS_GBNF = "\n".join(
     [
-        f'root ::= " "? "[" action (", " action){{0,{MAX_ACTIONS - 1}}} "]"',
+        _root_gbnf(MAX_ACTIONS),
         'action ::= "[" pos ", " pos ", " pos ", " rot ", " rot ", " rot ", " grip "]"',
         "pos ::= [0-9] | [1-9] [0-9]",
         "rot ::= [0-9] | [1-6] [0-9] | \"7\" [01]",
@@ -50,7 +54,7 @@ ACTIONS_GBNF = "\n".join(
 )
 ANCHORED_GBNF = "\n".join(
     [
-        f'root ::= " "? "[" action (", " action){{0,{MAX_ACTIONS - 1}}} "]"',
+        _root_gbnf(MAX_ACTIONS),
         'action ::= "[" obj ", " off ", " off ", " off ", " rot ", " rot ", " rot ", " grip "]"',
         "obj ::= [0-9]",
         'off ::= "-"? pos',
@@ -61,14 +65,28 @@ ANCHORED_GBNF = "\n".join(
 )
 
 
-def reply_regex(anchored: bool) -> str:
-    """The reply's regex for a prompt with absolute (False) or anchored (True) actions."""
-    return ANCHORED_REGEX if anchored else ACTIONS_REGEX
+def reply_regex(anchored: bool, max_actions: int | None = None) -> str:
+    """The reply's regex for a prompt with absolute (False) or anchored (True) actions, lists of
+    at most `max_actions` actions (None: the parser's MAX_ACTIONS)."""
+    if max_actions is None or max_actions == MAX_ACTIONS:
+        return ANCHORED_REGEX if anchored else ACTIONS_REGEX
+    return _list_regex(_ANCHORED if anchored else _ACTION, _check_max(max_actions))
 
 
-def reply_gbnf(anchored: bool) -> str:
-    """The reply's GBNF for a prompt with absolute (False) or anchored (True) actions."""
-    return ANCHORED_GBNF if anchored else ACTIONS_GBNF
+def reply_gbnf(anchored: bool, max_actions: int | None = None) -> str:
+    """The reply's GBNF for a prompt with absolute (False) or anchored (True) actions, lists of
+    at most `max_actions` actions (None: the parser's MAX_ACTIONS): the grammar then allows only
+    the list's end after the last one, so a reply that would repeat on stops there."""
+    grammar = ANCHORED_GBNF if anchored else ACTIONS_GBNF
+    if max_actions is None or max_actions == MAX_ACTIONS:
+        return grammar
+    return grammar.replace(_root_gbnf(MAX_ACTIONS), _root_gbnf(_check_max(max_actions)), 1)
+
+
+def _check_max(max_actions: int) -> int:
+    if not 1 <= int(max_actions) <= MAX_ACTIONS:
+        raise ValueError(f"max_actions must be 1 to {MAX_ACTIONS}, not {max_actions}")
+    return int(max_actions)
 
 
 def check_grammar(value: str) -> str:

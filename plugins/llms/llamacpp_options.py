@@ -31,6 +31,7 @@ class LlamaCppOptions:
     stop: Optional[List[str]] = None
     grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))
     stop_at_action_list: bool = False  # true: the reply is cut after its first action list
+    max_actions: Optional[int] = field(default=None, metadata=rule(lambda v: v is None or 1 <= v <= 26, "null or 1 to 26"))
     cache_dir: Optional[str] = None
     find_links: Optional[str] = None
     startup_timeout_s: float = field(default=120.0, metadata=above(0))

@@ -40,6 +40,11 @@ server ("vllm")
 stop_at_action_list (false)
     true: the reply is cut after its first action list (stopping.first_list_only), as
     transformers_local's option cuts it; false: the whole reply, later lists included (X-ICM).
+max_actions (null)
+    With the grammar on: replies are lists of at most this many actions (1-26; null: 26, the most
+    X-ICM's reader keeps). The grammar then allows only the list's end, so a reply that would
+    repeat an action on to the token budget stops there: fewer tokens decoded, and a reply longer
+    than the bound is its first max_actions actions. In identity() when set.
 timeout_s (120)
     Timeout of one attempt (connect, and each read), in seconds.
 retries (3)
@@ -92,6 +97,7 @@ class OpenAICompatibleLLM(LLM):
         self.grammar = check_grammar(o.grammar)
         self.server = server
         self.stop_at_action_list = o.stop_at_action_list
+        self.max_actions = o.max_actions
         if not str(base_url).startswith(("http://", "https://")):
             raise ConfigError(f"llm.base_url '{base_url}' is not an http(s) URL")
         try:
@@ -157,9 +163,9 @@ class OpenAICompatibleLLM(LLM):
         if self.grammar == "none" or self.server == "none":
             return {}
         return {
-            "vllm": {"structured_outputs": {"regex": reply_regex(anchored)}},
-            "sglang": {"regex": reply_regex(anchored)},
-            "llamacpp": {"grammar": reply_gbnf(anchored)},
+            "vllm": {"structured_outputs": {"regex": reply_regex(anchored, self.max_actions)}},
+            "sglang": {"regex": reply_regex(anchored, self.max_actions)},
+            "llamacpp": {"grammar": reply_gbnf(anchored, self.max_actions)},
         }[self.server]
 
     def _grammar_hint(self, exc) -> str:
@@ -231,6 +237,8 @@ class OpenAICompatibleLLM(LLM):
 
     def identity(self) -> str:
         constraint = {"grammar": self.grammar, "server": self.server} if self.grammar_fields() else {}
+        if constraint and self.max_actions is not None:
+            constraint["max_actions"] = self.max_actions
         cut = {"stop_at_action_list": True} if self.stop_at_action_list else {}
         return json.dumps(
             {

@@ -28,3 +28,5 @@ class OpenAICompatibleOptions:
     #: true: the reply is cut after its first action list (as transformers_local's option does);
     #: false: the whole reply, every later list included, as X-ICM reads it
     stop_at_action_list: bool = False
+    #: with the grammar: lists of at most this many actions (null: the parser's 26)
+    max_actions: Optional[int] = field(default=None, metadata=rule(lambda v: v is None or 1 <= v <= 26, "null or 1 to 26"))
