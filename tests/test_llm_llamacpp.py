@@ -85,9 +85,9 @@ def test_the_grammar_holds_replies_to_the_action_list(make_llm):
 
 
 def test_max_actions_ends_the_list_there(make_llm):
-    """The tiny model's unbounded replies run to the token budget (max_tokens 800: many actions);
-    llm.max_actions=2 lets the grammar close the list after two, in fewer decoded tokens."""
-    query = messages("['instruction': lift it, {'cube': [9, 9, 9]}]>")
+    """The tiny model's greedy reply to this query is a list of three actions; llm.max_actions=2
+    lets the grammar close the list after two, in fewer decoded tokens."""
+    query = messages(">[[")
     free, bounded = make_llm(), make_llm(max_actions=2)
     long = free.complete_messages(query)
     short = bounded.complete_messages(query)
@@ -139,14 +139,15 @@ def test_llms_of_one_process_share_one_server_started_from_any_thread(make_llm):
 
 
 def test_two_slots_decode_two_requests_at_once(make_llm):
-    """llm.parallel=2: two requests sent together are in flight together (one started before the
-    other ended), each slot keeps its own prefix, and each request still has ctx_size tokens."""
+    """llm.parallel=2: two requests released together are in flight together (each started before
+    the other ended; both prefill the cold demos first), and the slot that served a prompt keeps
+    its prefix for the next one."""
     import json
     import threading
     import urllib.request
 
     queries = [f"['instruction': go {i}, {{'cube': [{i}, 1, 1]}}]>" for i in range(2)]
-    llms = [make_llm(parallel=2, ctx_size=2048, speculative="none") for _ in queries]
+    llms = [make_llm(parallel=2, speculative="none", grammar="none") for _ in queries]
     assert llms[0].concurrent_requests == 2
     for llm in llms:
         llm.start()
@@ -154,8 +155,10 @@ def test_two_slots_decode_two_requests_at_once(make_llm):
     props = json.loads(urllib.request.urlopen(llms[0]._server.base_url + "/props", timeout=10).read())
     assert props["total_slots"] == 2
     spans: dict[int, tuple[float, float]] = {}
+    together = threading.Barrier(2)
 
     def ask(i: int) -> None:
+        together.wait()
         t0 = time.perf_counter()
         llms[i].complete_messages(messages(queries[i]))
         spans[i] = (t0, time.perf_counter())
@@ -165,10 +168,11 @@ def test_two_slots_decode_two_requests_at_once(make_llm):
         thread.start()
     for thread in threads:
         thread.join()
+    assert sorted(spans) == [0, 1], "a request failed"
     (start0, end0), (start1, end1) = spans[0], spans[1]
     assert start1 < end0 and start0 < end1  # in flight together
-    assert all(llm.last_call["predicted_n"] > 0 for llm in llms)
-    again = llms[0].complete_messages(messages(queries[0]))  # the slot that served it still holds its prefix
+    assert all(llm.last_call["predicted_n"] > 0 for llm in llms), [llm.last_call for llm in llms]
+    llms[0].complete_messages(messages(queries[0]))  # the slot that served it still holds its prefix
     assert llms[0].last_call["cache_n"] >= len(DEMOS) - 5
 
 
