@@ -13,6 +13,7 @@ and a number of concurrent episodes:
     slots2       llm.parallel=2, two episodes at a time (envs=2)
     slots4       llm.parallel=4, four episodes at a time (envs=4)
     slots2_nospec   slots2 without speculative decoding
+    slots2_max8  slots2 with replies bounded to 8 actions by the grammar (llm.max_actions=8)
 
 Modes run one after another on the same episodes, each on a fresh server (a cold cache), and
 the order alternates over `--rounds`, so slow phases of the machine hit all alike. Reported per
@@ -42,6 +43,7 @@ MODES = {
     "slots2": ({"parallel": 2}, 2),
     "slots4": ({"parallel": 4}, 4),
     "slots2_nospec": ({"parallel": 2, "speculative": "none"}, 2),
+    "slots2_max8": ({"parallel": 2, "max_actions": 8}, 2),
 }
 
 
