@@ -29,8 +29,8 @@ def main() -> None:
     args = ap.parse_args()
 
     from hydra import compose, initialize_config_module
-    from xicm.core.collect import build_collector, collect, collect_parallel, collector_config
-    from xicm.core.plugins import get_registry
+    from xicm.core.execution.collect import build_collector, collect, collect_parallel, collector_config
+    from xicm.core.assembly.plugins import get_registry
 
     registry = get_registry()
     tasks = args.tasks or [t for t in registry.names("task") if registry.task_info(t).split == "seen"]

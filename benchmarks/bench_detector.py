@@ -27,7 +27,7 @@ def main() -> None:
 
     import torch
 
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # the tiny model is a test helper
     from tiny_grounding_dino import build_tiny_grounding_dino

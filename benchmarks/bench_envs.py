@@ -49,7 +49,7 @@ def wait_for_port(server: subprocess.Popen) -> tuple[subprocess.Popen, int]:
     raise RuntimeError(f"the server ({' '.join(server.args[:2])}) exited before serving")
 
 
-#: policy=remote mapped onto an xicm-export checkpoint's features (conf/experiment/vla_baseline.yaml)
+#: policy=remote mapped onto an xicm-export checkpoint's features (src/xicm/conf/experiment/vla_baseline.yaml)
 LEROBOT_CLIENT = [
     "policy=remote", "policy.timeout_s=300", "policy.control_mode=joint_pos", "simulator.control_mode=joint_pos",
     "simulator.cameras=[front,wrist]", "policy.images={front: observation.images.front, wrist: observation.images.wrist}",
@@ -70,7 +70,7 @@ def main() -> None:
     if "lerobot" in args.policies and not args.checkpoint:
         ap.error("--policies lerobot needs --checkpoint")
 
-    from xicm.core.batched_envs import BatchedEnvs
+    from xicm.core.execution.batched_envs import BatchedEnvs
 
     tasks = args.tasks.split(",")
     keys = [(tasks[i % len(tasks)], 0, i) for i in range(args.episodes)]

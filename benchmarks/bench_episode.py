@@ -28,8 +28,8 @@ def main() -> None:
     with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
         cfg = compose("config", overrides=[f"llm={args.llm}", f"retriever={args.retriever}", f"policy.k={args.k}", *args.overrides])
 
-    from xicm.core.build import build_run
-    from xicm.core.episode import run_episode
+    from xicm.core.assembly.build import build_run
+    from xicm.core.execution.episode import run_episode
 
     t0 = time.perf_counter()
     run = build_run(cfg)  # the simulator, then the policy: pool, retriever features, LLM load

@@ -83,7 +83,7 @@ def main() -> None:
 def replay(cfg, out: Path, loaded: Path) -> None:
     """Replay the actions LeRobotDataset loads, per control mode, from each episode's reset (the
     scene its scene/* columns name, in the simulator they name)."""
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
     from xicm.lerobot.dataset_writer import read_dataset
     from xicm.export.provenance import from_dump
 

@@ -15,7 +15,7 @@ import shutil
 import tempfile
 import time
 
-from xicm.core.encoding import format_ints
+from xicm.core.text.encoding import format_ints
 
 SYSTEM = (
     "You are a Franka Panda robot with a parallel gripper. We provide you with some demos in the format of "

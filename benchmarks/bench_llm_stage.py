@@ -25,7 +25,7 @@ prompt tokens it reused; the share of replies identical between grammar_reduced 
 llamacpp_gemma compares the two engines on the same model (both greedy, both constrained).
 
 For each it reports LLM seconds per call and per episode, the parse_error rate (the project's
-parser, `xicm.core.parsing.parse_actions`) and whether the parsed actions agree with the first
+parser, `xicm.core.text.parsing.parse_actions`) and whether the parsed actions agree with the first
 mode's; replies of the two grammar modes must be identical. Against grammar_reduced (whole
 replies) it counts, for grammar_fill, the replies whose parsed actions are equal, and for
 grammar_cut those whose actions are equal once consecutive repeats are collapsed (that move the
@@ -40,7 +40,7 @@ Per episode a query demo is drawn (seeded), its k demos are drawn from the rest 
 (other demos of its task excluded when the pool has other tasks), and the policy's re-asks
 are imitated: call c of an episode has the same demos and the query's objects moved by c cm,
 as when the policy asks again after executing the previous reply. Decoding options come from
-conf/llm/gemma3_270m.yaml (max_new_tokens, chat_template, stop); the modes alternate call by call,
+src/xicm/conf/llm/gemma3_270m.yaml (max_new_tokens, chat_template, stop); the modes alternate call by call,
 so load from other processes hits all alike. `--batch` also answers the first call of every
 episode with one `complete_batch` call.
 """
@@ -68,8 +68,8 @@ def build_episodes(pool_path, n_episodes: int, calls_per_episode: int, k: int, s
     shared_demos: every episode is episode 0's task with the same demos and its objects moved by
     3 cm more per episode (consecutive episodes of one task, whose instruction retrieves the same
     demos), so the prefix cache carries over from one episode to the next as in a run."""
-    from xicm.core.dataset import load_pool, pool_info
-    from xicm.core.types import Query
+    from xicm.core.results.dataset import load_pool, pool_info
+    from xicm.core.contracts.types import Query
     from xicm.plugins.prompts.xicm_prompt import XicmPromptBuilder
 
     workspace = pool_info(pool_path)["workspace"]
@@ -92,10 +92,10 @@ def build_episodes(pool_path, n_episodes: int, calls_per_episode: int, k: int, s
 
 
 def gemma_options(max_new_tokens: int | None) -> dict:
-    """The embedded model's decoding options from conf/llm/gemma3_270m.yaml."""
+    """The embedded model's decoding options from src/xicm/conf/llm/gemma3_270m.yaml."""
     import yaml
 
-    conf = yaml.safe_load((ROOT / "conf" / "llm" / "gemma3_270m.yaml").read_text())
+    conf = yaml.safe_load((ROOT / "src/xicm/conf" / "llm" / "gemma3_270m.yaml").read_text())
     keep = ("max_new_tokens", "do_sample", "max_prompt_tokens", "chat_template", "prompt_overflow", "stop")
     options = {key: conf[key] for key in keep if key in conf}
     if max_new_tokens:
@@ -115,7 +115,7 @@ MODES = {
 }
 
 
-#: llama.cpp modes: the alias in conf/llm/ whose options they run with
+#: llama.cpp modes: the alias in src/xicm/conf/llm/ whose options they run with
 LLAMACPP_MODES = {
     "llamacpp_gemma": "gemma3_270m_llamacpp",
     "llamacpp_qwen0_5b": "qwen2_5_coder_0_5b",
@@ -180,7 +180,7 @@ def main() -> None:
         parser.error(f"--modes: unknown {', '.join(unknown)}; available: {', '.join([*MODES, *LLAMACPP_MODES])}")
 
     import torch
-    from xicm.core.parsing import ParseError, parse_actions
+    from xicm.core.text.parsing import ParseError, parse_actions
     from xicm.plugins.llms import stopping
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
     from xicm.plugins.llms.transformers_local_options import TransformersLocalOptions

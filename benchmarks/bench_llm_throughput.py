@@ -159,7 +159,7 @@ def summarise(mode: str, clients: int, runs: list[dict], n_episodes: int, baseli
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("run_dir", type=Path, help="an xicm-eval run folder with transcripts/")
-    parser.add_argument("--llm", default="qwen2_5_coder_0_5b", help="an llm alias of conf/llm/ (a llamacpp one)")
+    parser.add_argument("--llm", default="qwen2_5_coder_0_5b", help="an llm alias of src/xicm/conf/llm/ (a llamacpp one)")
     parser.add_argument("--episodes", type=int, default=8)
     parser.add_argument("--modes", default="serial,slots2")
     parser.add_argument("--rounds", type=int, default=1, help="passes over the modes, the order reversed each pass")

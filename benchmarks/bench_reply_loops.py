@@ -76,7 +76,7 @@ def print_table(figures: dict[str, list[dict]]) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("run_dir", type=Path)
-    parser.add_argument("--llm", default="qwen2_5_coder_0_5b", help="an alias in conf/llm/ on the llamacpp engine")
+    parser.add_argument("--llm", default="qwen2_5_coder_0_5b", help="an alias in src/xicm/conf/llm/ on the llamacpp engine")
     parser.add_argument("--calls", type=int, default=20)
     parser.add_argument("--per-task", type=int, default=0, help="first calls of this many episodes per task (0: every call)")
     parser.add_argument("--settings", nargs="+", default=["paper:", "no_penalty:repeat_penalty=1.0,repeat_last_n=64"])

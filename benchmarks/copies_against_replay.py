@@ -21,7 +21,7 @@ import json
 from pathlib import Path
 
 from reply_copies import ANCHORED, DEMO_ACTIONS, sort_reply
-from xicm.core.run_dir import RunDir
+from xicm.core.results.run_dir import RunDir
 
 COLUMNS = ("episodes", "llm", "replay", "llm only", "replay only")
 

@@ -16,7 +16,7 @@ import statistics
 
 
 def main() -> None:
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2, 10000])

@@ -18,7 +18,7 @@ def main() -> None:
     from gymnasium.utils.env_checker import check_env
 
     import xicm.vla
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--control-mode", default="ee_delta")

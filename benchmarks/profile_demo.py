@@ -2,7 +2,7 @@
 
     python benchmarks/profile_demo.py --demos 3 --tasks open_drawer,stack_blocks
 
-Profiles `xicm.core.collect.record_episode` (reset, first observation, scripted demo, last
+Profiles `xicm.core.execution.collect.record_episode` (reset, first observation, scripted demo, last
 observation, detection) plus writing the demo, with cProfile, and attributes the time spent
 inside the SAPIEN calls that do the work: Scene.step (physics), update_render and
 take_picture/get_picture (rendering), compute_inverse_kinematics (IK), h5py (writing).
@@ -30,9 +30,9 @@ def main() -> None:
     ap.add_argument("--tasks", default="open_drawer,push_buttons,stack_blocks,place_cups,close_microwave")
     args = ap.parse_args()
 
-    from xicm.core.collect import record_episode
-    from xicm.core.dataset import DemoWriter
-    from xicm.core.plugins import get_registry
+    from xicm.core.execution.collect import record_episode
+    from xicm.core.results.dataset import DemoWriter
+    from xicm.core.assembly.plugins import get_registry
 
     reg = get_registry()
     sim = reg.create_simulator({"name": "sapien"})

@@ -15,7 +15,7 @@ import time
 
 
 def main() -> None:
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
     from xicm.plugins.simulators.sapien.options import CONTROL_MODES
     from xicm.plugins.simulators.sapien.replay import replay_steps
 

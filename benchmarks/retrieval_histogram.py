@@ -20,7 +20,7 @@ import math
 from collections import Counter, defaultdict
 from pathlib import Path
 
-from xicm.core.run_dir import RunDir
+from xicm.core.results.run_dir import RunDir
 
 
 def histograms(run: Path) -> dict[str, Counter]:

@@ -27,9 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
-from xicm.core.dataset import load_pool
-from xicm.core.plugins import get_registry
-from xicm.core.types import Demo, Query
+from xicm.core.results.dataset import load_pool
+from xicm.core.assembly.plugins import get_registry
+from xicm.core.contracts.types import Demo, Query
 from xicm.plugins.dynamics.images import to_model
 
 # retriever name -> dynamics encoder options (None: not a dynamics retriever)
@@ -37,7 +37,7 @@ DYNAMICS = {
     "dynamics": {"mode": "predicted_frame", "visual": "final"},
     "dynamics_change": {"mode": "predicted_frame", "visual": "change"},
     "dynamics_onepass": {"mode": "unet_features"},
-    # X-ICM's ranking (conf/retriever/dynamics_xicm.yaml): the raw predicted final frame, no text, dot product
+    # X-ICM's ranking (src/xicm/conf/retriever/dynamics_xicm.yaml): the raw predicted final frame, no text, dot product
     "dynamics_xicm": {"mode": "predicted_frame", "visual": "final", "text_weight": 0.0, "normalise": False},
 }
 SCORE = {"dynamics_xicm": "dot"}  # retriever.score where it is not cosine

@@ -9,7 +9,7 @@ text grid, reset the same episode and execute them. Physics only (no rendering).
         [--scenes ours|rlbench] [--robot ours|rlbench] [--gripper-after-success]
         [--tasks open_drawer push_buttons ...]
 
-The paper settings (conf/simulator/sapien_paper.yaml): --scenes rlbench --robot rlbench
+The paper settings (src/xicm/conf/simulator/sapien_paper.yaml): --scenes rlbench --robot rlbench
 --success-check per_frame --gripper-after-success.
 
 With --scenes rlbench each scene is redrawn until the demonstrator solves it; the draws
@@ -27,8 +27,8 @@ import numpy as np
 
 def main() -> None:
     from xicm.plugins.simulators.sapien.replay import demo_key_actions, replay
-    from xicm.core.errors import EpisodeFailure
-    from xicm.core.plugins import get_registry
+    from xicm.core.contracts.errors import EpisodeFailure
+    from xicm.core.assembly.plugins import get_registry
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=50, help="seeds per task (episode 0 of seeds first-seed .. first-seed+N-1)")

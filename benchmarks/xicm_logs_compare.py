@@ -1,4 +1,4 @@
-"""Per task: X-ICM's own logs (report/xicm_logs.yaml, RLBench) beside our run folders (SAPIEN):
+"""Per task: X-ICM's own logs (src/xicm/report/xicm_logs.yaml, RLBench) beside our run folders (SAPIEN):
 success, and how failed episodes end (early, before the 25th key action, or after all 25).
 Prints the markdown table of docs/AGNOSTOS.md ("X-ICM's own logs beside our rows").
 
@@ -17,7 +17,7 @@ from pathlib import Path
 
 from xicm.report import table2, xicm_logs
 from xicm.report.summary import wilson_interval
-from xicm.core.run_dir import RunDir
+from xicm.core.results.run_dir import RunDir
 
 
 def pct(k: float, n: float) -> str:

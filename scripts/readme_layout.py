@@ -21,9 +21,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the package's top folders, in the order the sections list them
-PACKAGES = ("core", "plugins", "conf", "report", "serving", "vla", "export", "lerobot")
+PACKAGE = "src/xicm"  # the package itself (src layout); then its top folders
+PACKAGES = ("src/xicm/core", "src/xicm/plugins", "src/xicm/conf", "src/xicm/report", "src/xicm/serving", "src/xicm/vla", "src/xicm/export", "src/xicm/lerobot")
 #: folders below a package that hold one module per entry of a catalogue (their parent describes them)
-CATALOGUES = ("plugins/simulators/sapien/tasks/seen", "plugins/simulators/sapien/tasks/unseen", "plugins/simulators/sapien/assets")
+CATALOGUES = ("src/xicm/plugins/simulators/sapien/tasks/seen", "src/xicm/plugins/simulators/sapien/tasks/unseen", "src/xicm/plugins/simulators/sapien/assets")
 FOLDERS_WITHOUT_PACKAGE = {
     "tests": "The pytest suite (`-m \"not slow\"`: the fast lane; see Tests) and its helpers (tiny models, a kinematic simulator)",
     "benchmarks": "Scripts that print performance figures (not timed tests)",
@@ -36,7 +37,7 @@ MARKERS = {  # file -> (begin, end) lines around its generated block
     "docs/DESIGN.md": ("<!-- modules: written by scripts/readme_layout.py from the docstrings -->", "<!-- /modules -->"),
 }
 WIDTH = 110
-INDENT = 34  # the description column
+INDENT = 43  # the description column
 
 
 def first_sentence(path: Path) -> str:
@@ -49,8 +50,8 @@ def first_sentence(path: Path) -> str:
 
 
 def packages() -> list[Path]:
-    """Every package folder (one with __init__.py) under PACKAGES, parents before children."""
-    found = []
+    """The package folder, then every package folder (one with __init__.py) under PACKAGES, parents before children."""
+    found = [Path(PACKAGE)]
     for top in PACKAGES:
         for init in sorted((ROOT / top).rglob("__init__.py")):
             folder = init.parent.relative_to(ROOT)

@@ -21,7 +21,7 @@ pytest_plugins = ["lanes", "prebuild", "file_order", "strict_skips", "pytester"]
 def sim():
     """One rendering SAPIEN simulator for the session (a process's first render compiles shaders,
     ~7 s): for tests that render. Tests of physics alone take `physics_sim`."""
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     simulator = get_registry().create_simulator({"name": "sapien", "image_size": 128})
     yield simulator
@@ -32,7 +32,7 @@ def sim():
 def physics_sim():
     """A fresh physics-only SAPIEN simulator (render=False, ~0.02 s to build) for each test of
     physics alone. (Every reset builds a new scene, so a shared simulator would repeat too.)"""
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     simulator = get_registry().create_simulator({"name": "sapien", "render": False})
     yield simulator
@@ -42,9 +42,9 @@ def physics_sim():
 @pytest.fixture(scope="session")
 def smoke_pool(sim, tmp_path_factory):
     """Two scripted demos of each seen smoke task, collected with the real simulator."""
-    from xicm.core.collect import collect
-    from xicm.core.dataset import load_pool
-    from xicm.core.plugins import get_registry
+    from xicm.core.execution.collect import collect
+    from xicm.core.results.dataset import load_pool
+    from xicm.core.assembly.plugins import get_registry
 
     path = tmp_path_factory.mktemp("pool") / "smoke.h5"
     detector = get_registry().create("detector", {"name": "oracle"})

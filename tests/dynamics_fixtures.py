@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from xicm.core.dataset import DemoWriter
-from xicm.core.types import Demo, KeyAction
+from xicm.core.results.dataset import DemoWriter
+from xicm.core.contracts.types import Demo, KeyAction
 
 WORKSPACE = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 TASKS = {  # task -> (instruction, colour, start column, end column)

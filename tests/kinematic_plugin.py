@@ -20,7 +20,7 @@ def kinematic_env() -> dict[str, str]:
 @pytest.fixture
 def kinematic_registry(monkeypatch):
     """This process's plugin registry rebuilt with the plugin found (both undone afterwards)."""
-    from xicm.core import plugins
+    from xicm.core.assembly import plugins
 
     monkeypatch.syspath_prepend(str(FOLDER))
     monkeypatch.setenv("PYTHONPATH", kinematic_env()["PYTHONPATH"])  # for worker processes (spawn)

@@ -4,7 +4,7 @@ of the suite runs. The tests that need them run last (file_order.py) and wait on
 lock; a build that is cached already returns at once, and one no selected test needs never starts.
 
     marker        what the tests wait for                                 from nothing, 2 cores
-    llama_server  llama.cpp's llama-server (plugins/llms/build_llamacpp.sh)  ~7-12 min of compiling
+    llama_server  llama.cpp's llama-server (src/xicm/plugins/llms/build_llamacpp.sh)  ~7-12 min of compiling
     venv          the lerobot and openpi-client environments                ~10 min, mostly downloads
 
 The builds run at the lowest CPU priority (nice 19), so the suite keeps the cores it uses; each

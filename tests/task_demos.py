@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from xicm.core.types import KeyAction
+from xicm.core.contracts.types import KeyAction
 
 
 def go(sim, action: KeyAction) -> None:
@@ -57,15 +57,15 @@ def hold_at_release(sim) -> KeyAction:
     pytest.fail("the demonstrator never let go")
 
 
-PAPER_SIMULATOR = Path(__file__).resolve().parents[1] / "conf" / "simulator" / "sapien_paper.yaml"
+PAPER_SIMULATOR = Path(__file__).resolve().parents[1] / "src/xicm/conf" / "simulator" / "sapien_paper.yaml"
 
 
 def paper_simulator(**changes):
-    """A fresh physics-only SAPIEN simulator with the paper settings (conf/simulator/sapien_paper.yaml:
+    """A fresh physics-only SAPIEN simulator with the paper settings (src/xicm/conf/simulator/sapien_paper.yaml:
     RLBench's scenes, robot and success check), `changes` applied on top."""
     from omegaconf import OmegaConf
 
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     options = {k: v for k, v in OmegaConf.to_container(OmegaConf.load(PAPER_SIMULATOR)).items() if k != "defaults"}
     options.update({"name": "sapien", "render": False, **changes})

@@ -4,12 +4,12 @@ and every failure kind ending one episode."""
 import pytest
 from omegaconf import OmegaConf
 
-from xicm.core.encoding import format_actions
-from xicm.core.episode import run_episode
-from xicm.core.errors import ConfigError, LLMError
-from xicm.core.interfaces import LLM, Detector, PolicyContext
-from xicm.core.plugins import get_registry
-from xicm.core.reanchor import reanchor
+from xicm.core.text.encoding import format_actions
+from xicm.core.execution.episode import run_episode
+from xicm.core.contracts.errors import ConfigError, LLMError
+from xicm.core.contracts.interfaces import LLM, Detector, PolicyContext
+from xicm.core.assembly.plugins import get_registry
+from xicm.core.text.reanchor import reanchor
 from xicm.plugins.policies.xicm import XicmPolicyOptions, create_xicm_policy
 from xicm.plugins.policies.xicm.policy import XICMPolicy
 

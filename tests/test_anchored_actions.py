@@ -7,11 +7,12 @@ from __future__ import annotations
 import pluggy
 import pytest
 
-from xicm.core import encoding, hookspecs
-from xicm.core.parsing import ParseError, parse_actions, parse_actions_xicm, partial_stop
-from xicm.core.plugins import Registry
-from xicm.core.reanchor import order_like_demo
-from xicm.core.types import Demo, KeyAction, Prompt, Query
+from xicm.core.text import encoding
+from xicm.core.contracts import hookspecs
+from xicm.core.text.parsing import ParseError, parse_actions, parse_actions_xicm, partial_stop
+from xicm.core.assembly.plugins import Registry
+from xicm.core.text.reanchor import order_like_demo
+from xicm.core.contracts.types import Demo, KeyAction, Prompt, Query
 from xicm.plugins.llms.nearest_demo import NearestDemoLLM, NearestDemoOptions
 from xicm.plugins.prompts import xicm_paper
 

@@ -1,11 +1,11 @@
-"""Atomic writes (core/atomic.py): the new content or the old, never part of one, and no temp file left."""
+"""Atomic writes (src/xicm/core/results/atomic.py): the new content or the old, never part of one, and no temp file left."""
 
 import os
 
 import numpy as np
 import pytest
 
-from xicm.core.atomic import write_atomic, write_dir_atomic, write_json_atomic
+from xicm.core.results.atomic import write_atomic, write_dir_atomic, write_json_atomic
 
 
 def test_text_bytes_and_writer_functions_replace_the_file(tmp_path):

@@ -6,12 +6,12 @@ import time
 import pytest
 from hydra import compose, initialize_config_module
 
-from xicm.core.batched_envs import BatchedEnvs, Lockstep, SlotPolicy
-from xicm.core.checks import CheckInput, run_modes
-from xicm.core.plugins import get_registry
-from xicm.core.episode import run_episode
-from xicm.core.errors import ConfigError
-from xicm.core.interfaces import Policy
+from xicm.core.execution.batched_envs import BatchedEnvs, Lockstep, SlotPolicy
+from xicm.core.assembly.checks import CheckInput, run_modes
+from xicm.core.assembly.plugins import get_registry
+from xicm.core.execution.episode import run_episode
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.contracts.interfaces import Policy
 from xicm.plugins.policies.oracle import OraclePolicy
 
 

@@ -5,11 +5,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from xicm.core import encoding
-from xicm.core.collect import collect
-from xicm.core.dataset import DemoWriter, load_pool
-from xicm.core.interfaces import Simulator
-from xicm.core.types import CameraFrame, KeyAction, Observation, StepOutcome, TaskInfo, Trajectory
+from xicm.core.text import encoding
+from xicm.core.execution.collect import collect
+from xicm.core.results.dataset import DemoWriter, load_pool
+from xicm.core.contracts.interfaces import Simulator
+from xicm.core.contracts.types import CameraFrame, KeyAction, Observation, StepOutcome, TaskInfo, Trajectory
 from xicm.plugins.detectors.oracle import OracleDetector
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
@@ -164,8 +164,8 @@ def test_results_out_of_order_are_committed_as_a_sequential_run_would(tmp_path):
     import time
     from concurrent.futures import ThreadPoolExecutor
 
-    from xicm.core.collect import attempt_episode
-    from xicm.core.collect_walk import EpisodeWalk
+    from xicm.core.execution.collect import attempt_episode
+    from xicm.core.execution.collect_walk import EpisodeWalk
 
     fail, crash, tasks = {1, 4, 5}, {2}, ["fake_push", "fake_lift"]
     sequential = tmp_path / "sequential.h5"
@@ -192,7 +192,7 @@ def test_results_out_of_order_are_committed_as_a_sequential_run_would(tmp_path):
 # ------------------------------------------------------------------ real simulator
 @pytest.fixture(scope="module")
 def sapien_pool(tmp_path_factory):
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     sim = get_registry().create_simulator({"name": "sapien"})
     path = tmp_path_factory.mktemp("pool") / "pool.h5"

@@ -7,11 +7,11 @@ from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
 from cli_in_process import run_main
-from xicm.core import build, checks
-from xicm.core.errors import ConfigError
-from xicm.core.plugins import UnknownPluginError, get_registry
+from xicm.core.assembly import build, checks
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.assembly.plugins import UnknownPluginError, get_registry
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
+CONF = Path(__file__).resolve().parents[1] / "src/xicm/conf"
 GROUPS = ["simulator", "detector", "encoder", "retriever", "prompt", "llm", "benchmark", "policy"]
 
 
@@ -53,7 +53,7 @@ def test_unknown_task_stops_with_the_list():
 
 @pytest.mark.parametrize("value, workers", [("auto", None), (1, 1), ("3", 3)])
 def test_collect_workers(value, workers):
-    from xicm.core.collect_job import resolve_workers
+    from xicm.core.assembly.collect_job import resolve_workers
 
     assert resolve_workers(value) == (workers or os.cpu_count())
 
@@ -67,7 +67,7 @@ def test_missing_pool_says_what_to_run_before_anything_is_built(tmp_path):
 @pytest.fixture
 def cli(monkeypatch, capsys):
     """xicm-eval with these arguments, in this process (cli_in_process.py)."""
-    from xicm.core.cli import eval_main
+    from xicm.core.assembly.cli import eval_main
 
     return lambda *args, cwd: run_main(eval_main, "xicm-eval", *args, cwd=cwd, monkeypatch=monkeypatch, capsys=capsys)
 
@@ -118,7 +118,7 @@ def test_unknown_policy_stops_with_the_list():
 
 
 def test_long_sweep_folder_names_are_cut_and_hashed():
-    from xicm.core.run_dir import FOLDER_NAME_LIMIT, short_name
+    from xicm.core.results.run_dir import FOLDER_NAME_LIMIT, short_name
 
     long = "benchmark.tasks=[" + ",".join(f"task_number_{i}" for i in range(40)) + "],detector.noise_cm="
     a, b = short_name(long + "0", FOLDER_NAME_LIMIT), short_name(long + "8", FOLDER_NAME_LIMIT)
@@ -146,7 +146,7 @@ def test_every_experiment_composes_and_sweeps_what_exists(name):
 
 @pytest.mark.parametrize("policy", ["oracle", "remote"])
 def test_the_paper_presets_compose_with_any_policy(policy):
-    """X-ICM's own policy keys live in conf/policy/xicm_paper.yaml (the presets' policy), so
+    """X-ICM's own policy keys live in src/xicm/conf/policy/xicm_paper.yaml (the presets' policy), so
     choosing another policy drops them instead of failing their unknown-key check."""
     cfg = _compose(["+experiment=paper_table2", f"policy={policy}"])
     get_registry().check_options("policy", build.group_options(cfg, "policy"))

@@ -10,13 +10,13 @@ import pytest
 from hydra import compose, initialize_config_module
 
 from cli_in_process import run_main
-from xicm.core import build, checks
-from xicm.core.config_schema import XicmConfig
-from xicm.core.errors import ConfigError
-from xicm.core.plugins import DEFAULT_PLUGINS, get_registry
-from xicm.core.schema import check_config, check_overrides
+from xicm.core.assembly import build, checks
+from xicm.core.assembly.config_schema import XicmConfig
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.assembly.plugins import DEFAULT_PLUGINS, get_registry
+from xicm.core.contracts.schema import check_config, check_overrides
 
-CONF = Path(__file__).resolve().parents[1] / "conf"
+CONF = Path(__file__).resolve().parents[1] / "src/xicm/conf"
 PLUGIN_GROUPS = ["simulator", "detector", "encoder", "retriever", "prompt", "llm", "policy"]
 SEEDS = "a non-empty list of distinct integers from 0 to 4294967295, e.g. [0,1,2]"
 IMAGE_SIZE = (
@@ -34,7 +34,7 @@ def _compose(overrides=()):
 @pytest.fixture
 def cli(monkeypatch, capsys):
     """xicm-<command> with these arguments, in this process (cli_in_process.py)."""
-    from xicm.core import cli as commands
+    from xicm.core.assembly import cli as commands
 
     def run(command, *args, cwd):
         main = getattr(commands, f"{command}_main")
@@ -212,7 +212,7 @@ def test_the_policy_parts_options_are_checked_before_anything_is_built(tmp_path,
 
 
 def test_the_collection_checks_its_simulator_and_detector(tmp_path):
-    from xicm.core.collect_job import run_collect
+    from xicm.core.assembly.collect_job import run_collect
 
     with pytest.raises(ConfigError, match="^detector.noise_cm must be a number >= 0, not -1$"):
         run_collect(_compose([f"paths.data={tmp_path}", "detector=noisy_oracle", "detector.noise_cm=-1"]))
@@ -222,8 +222,8 @@ def test_the_collection_checks_its_simulator_and_detector(tmp_path):
 
 
 def test_a_plugin_registered_without_a_schema_keeps_its_factory_check():
-    from xicm.core.hookspecs import hookimpl
-    from xicm.core.plugins import Registry, make_plugin_manager
+    from xicm.core.contracts.hookspecs import hookimpl
+    from xicm.core.assembly.plugins import Registry, make_plugin_manager
 
     class Parrot:
         deterministic = True

@@ -1,4 +1,4 @@
-"""The HDF5 demonstration pool (core/dataset.py, docs/reference/dataset.md)."""
+"""The HDF5 demonstration pool (src/xicm/core/results/dataset.py, docs/reference/dataset.md)."""
 
 import os
 import signal
@@ -11,10 +11,10 @@ import h5py
 import numpy as np
 import pytest
 
-from xicm.core import encoding
-from xicm.core.dataset import DemoWriter, demo_id, load_pool, pool_info
-from xicm.core.errors import ConfigError
-from xicm.core.types import Demo, KeyAction, Trajectory
+from xicm.core.text import encoding
+from xicm.core.results.dataset import DemoWriter, demo_id, load_pool, pool_info
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.contracts.types import Demo, KeyAction, Trajectory
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 
@@ -147,7 +147,7 @@ def test_killed_writer_leaves_no_half_demo(tmp_path):
         sys.path.insert(0, {os.path.dirname(__file__)!r})
         import numpy as np
         from test_dataset import make_demo, WS
-        from xicm.core import dataset
+        from xicm.core.results import dataset
         real_fill = dataset._fill_group
         def dying_fill(g, demo, ws):
             if demo.episode == 1:

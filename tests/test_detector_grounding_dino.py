@@ -13,7 +13,7 @@ pytest.importorskip("torch")
 from test_detector_oracle import H, W, look_at, patch_frame  # noqa: E402
 from tiny_grounding_dino import build_tiny_grounding_dino  # noqa: E402
 
-from xicm.core.errors import ConfigError  # noqa: E402
+from xicm.core.contracts.errors import ConfigError  # noqa: E402
 from xicm.plugins.detectors.grounding_dino import GroundingDinoDetector, lift_box, name_token_spans  # noqa: E402
 from xicm.plugins.detectors.grounding_dino import GroundingDinoOptions  # noqa: E402
 

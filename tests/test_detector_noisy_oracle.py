@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from test_detector_oracle import look_at, obs_of, patch_frame
-from xicm.core.errors import ConfigError
-from xicm.core.plugins import get_registry
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.assembly.plugins import get_registry
 from xicm.plugins.detectors.noisy_oracle import NoisyOracleDetector, NoisyOracleOptions
 from xicm.plugins.detectors.oracle import OracleDetector
 

@@ -4,10 +4,10 @@ import numpy as np
 import pluggy
 import pytest
 
-from xicm.core import hookspecs
-from xicm.core.plugins import Registry
+from xicm.core.contracts import hookspecs
+from xicm.core.assembly.plugins import Registry
 from xicm.plugins.detectors import oracle
-from xicm.core.types import CameraFrame, KeyAction, Observation
+from xicm.core.contracts.types import CameraFrame, KeyAction, Observation
 from xicm.plugins.detectors.oracle import OracleDetector, OracleOptions, backproject
 
 H, W = 96, 128
@@ -164,7 +164,7 @@ def test_raycast_square_recovered_with_rotated_cameras():
 
 def test_sapien_frames_follow_the_opencv_pixel_convention():
     """Back-projecting a rendered SAPIEN frame with its CameraFrame reproduces SAPIEN's own points."""
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     sim = get_registry().create_simulator({"name": "sapien", "cameras": ["front"]})
     try:

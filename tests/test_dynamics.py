@@ -15,10 +15,10 @@ pytest.importorskip("diffusers")
 import torch  # noqa: E402
 
 from dynamics_fixtures import TASKS, frame, write_pool  # noqa: E402
-from xicm.core.dataset import load_pool  # noqa: E402
-from xicm.core.errors import ConfigError  # noqa: E402
-from xicm.core.plugins import get_registry  # noqa: E402
-from xicm.core.types import Query  # noqa: E402
+from xicm.core.results.dataset import load_pool  # noqa: E402
+from xicm.core.contracts.errors import ConfigError  # noqa: E402
+from xicm.core.assembly.plugins import get_registry  # noqa: E402
+from xicm.core.contracts.types import Query  # noqa: E402
 from xicm.plugins.dynamics.train import run_training  # noqa: E402
 from xicm.plugins.encoders.dynamics import DynamicsEncoder, resolve_checkpoint  # noqa: E402
 from xicm.plugins.encoders.dynamics import DynamicsEncoderOptions  # noqa: E402

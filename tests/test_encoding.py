@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from xicm.core import encoding
-from xicm.core.types import KeyAction, Trajectory
+from xicm.core.text import encoding
+from xicm.core.contracts.types import KeyAction, Trajectory
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))  # upstream AGNOSTOS box: 1 cm voxels
 

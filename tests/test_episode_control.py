@@ -1,13 +1,13 @@
-"""Per-step policies in the episode loop (core/episode.py): ControlStep actions and chunks,
+"""Per-step policies in the episode loop (src/xicm/core/execution/episode.py): ControlStep actions and chunks,
 the max_control_steps budget and its per-task default, and benchmark.variations."""
 
 import pytest
 from hydra import compose, initialize_config_module
 
-from xicm.core.build import build_run
-from xicm.core.episode import run_episode
-from xicm.core.interfaces import Policy
-from xicm.core.types import ControlStep
+from xicm.core.assembly.build import build_run
+from xicm.core.execution.episode import run_episode
+from xicm.core.contracts.interfaces import Policy
+from xicm.core.contracts.types import ControlStep
 
 TASK = "open_drawer"
 
@@ -90,7 +90,7 @@ def test_a_bad_control_step_fails_the_episode_with_its_reason(run):
 
 
 def test_every_registered_task_declares_a_control_step_budget():
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     registry = get_registry()
     budgets = {t: registry.task_info(t).max_control_steps for t in registry.tasks(simulator="sapien")}
@@ -120,9 +120,9 @@ def test_benchmark_variations_sets_the_simulators_sample_variations():
 
 
 def test_an_unknown_benchmark_variations_value_is_one_sentence():
-    from xicm.core.errors import ConfigError
-    from xicm.core.checks import check_run
-    from xicm.core.plugins import get_registry
+    from xicm.core.contracts.errors import ConfigError
+    from xicm.core.assembly.checks import check_run
+    from xicm.core.assembly.plugins import get_registry
 
     cfg = _compose("benchmark.variations=all")
     with pytest.raises(ConfigError, match="benchmark.variations must be one of zero, sampled, not 'all'"):

@@ -54,7 +54,7 @@ def test_the_retriever_prefers_scenes_that_name_the_same_objects():
         sys.path.remove(str(EXAMPLE))
     import numpy as np
 
-    from xicm.core.types import Demo, Query
+    from xicm.core.contracts.types import Demo, Query
 
     def demo(i, names, instruction):
         return Demo(f"d{i}", "t", instruction, 0, i, {n: (0.0, 0.0, 0.0) for n in names}, [])

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from hydra import compose, initialize_config_module
 
-from xicm.core.errors import ConfigError
-from xicm.core.spaces import KEY_POSE_NAMES
-from xicm.core.types import KeyAction
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.contracts.spaces import KEY_POSE_NAMES
+from xicm.core.contracts.types import KeyAction
 from xicm.export import features as feats
 from xicm.export.job import check_export, export_tasks
 from xicm.export.record import key_action_columns
@@ -113,7 +113,7 @@ def test_cli_bad_input_prints_one_sentence_and_no_traceback(tmp_path):
     import subprocess
     import sys
 
-    code = "import sys; from xicm.core.cli import export_main; sys.argv[0] = 'xicm-export'; export_main()"
+    code = "import sys; from xicm.core.assembly.cli import export_main; sys.argv[0] = 'xicm-export'; export_main()"
     out = subprocess.run(
         [sys.executable, "-c", code, "simulator.image_size=5000", f"hydra.run.dir={tmp_path}"],
         capture_output=True, text=True, timeout=300, cwd=tmp_path,
@@ -129,9 +129,9 @@ def test_cli_bad_input_prints_one_sentence_and_no_traceback(tmp_path):
 @pytest.mark.slow
 @pytest.mark.subprocess
 def test_worker_processes_record_what_this_process_records(tmp_path):
-    """xicm-export's worker pool (core/worker_pool.py, shared with xicm-collect): the same episodes
+    """xicm-export's worker pool (src/xicm/core/execution/worker_pool.py, shared with xicm-collect): the same episodes
     recorded in two spawned processes and in this one give the same layout and arrays."""
-    from xicm.core.worker_pool import WorkerPool
+    from xicm.core.execution.worker_pool import WorkerPool
     from xicm.export.job import _attempt, _facts, _recorder_from
 
     _, options = check_export(_compose("simulator.image_size=32", "export.cameras=[front]"))
@@ -328,7 +328,7 @@ def test_key_frames_of_the_same_staging_load_with_lerobot_and_replay_to_success(
     per key action whose `action` is the key pose; executing those poses solves each scene."""
     import shutil
 
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
     from xicm.export import record
     from xicm.lerobot.dataset_writer import read_dataset
     from xicm.export.job import run_export

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from xicm.core.errors import ConfigError
+from xicm.core.contracts.errors import ConfigError
 from xicm.plugins.llms import gguf_packages
 from xicm.plugins.llms.gguf_packages import PackagedGGUF, cached_gguf
 

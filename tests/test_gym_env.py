@@ -11,13 +11,13 @@ import pytest
 gymnasium = pytest.importorskip("gymnasium")
 
 import xicm.vla  # noqa: E402,F401 - registers the env ids
-from xicm.core.errors import ConfigError  # noqa: E402
+from xicm.core.contracts.errors import ConfigError  # noqa: E402
 
 SMALL = {"obs_mode": "rgb", "render_mode": "rgb_array", "cameras": ["front"], "image_size": 32}
 
 
 def test_every_registered_task_has_an_env_id():
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     tasks = list(get_registry().tasks(simulator="sapien"))
     assert len(tasks) == 41

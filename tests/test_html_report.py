@@ -84,7 +84,7 @@ def make_pool(path):
     """A pool file holding one demo's first frame (the report reads it through core.dataset)."""
     import h5py
 
-    from xicm.core.dataset import FORMAT
+    from xicm.core.results.dataset import FORMAT
 
     path.parent.mkdir(parents=True, exist_ok=True)
     with h5py.File(path, "w") as f:
@@ -95,7 +95,7 @@ def make_pool(path):
 def test_paper_table_columns_are_the_agnostos_benchmark_and_its_levels_add_up():
     import yaml
 
-    benchmark = yaml.safe_load((ROOT / "conf/benchmark/agnostos.yaml").read_text())
+    benchmark = yaml.safe_load((ROOT / "src/xicm/conf/benchmark/agnostos.yaml").read_text())
     paper = table2.paper_table()
     assert table2.columns() == benchmark["tasks"] and (len(paper["level1"]), len(paper["level2"])) == (13, 10)
     assert paper["source"] == "paper, RLBench/CoppeliaSim"
@@ -186,7 +186,7 @@ def test_report_command_refuses_a_bad_video_limit(tmp_path, capsys):
 def test_eval_job_writes_the_page_unless_report_html_is_false(tmp_path, enabled):
     from omegaconf import OmegaConf
 
-    from xicm.core.eval_job import _write_html
+    from xicm.core.assembly.eval_job import _write_html
 
     run = make_run(tmp_path / "run", {(L1, 0): [True]})
     _write_html(OmegaConf.create({"report": {"html": enabled, "inline_video_mb": 2}}), run)
@@ -215,7 +215,7 @@ def test_core_and_the_report_tables_import_without_the_report_extra():
         "import sys, pkgutil, importlib;"
         f"sys.modules.update(dict.fromkeys({REPORT_EXTRA!r}));"
         "import xicm.core, xicm.report;"
-        "names = [f'{p.__name__}.{m.name}' for p in (xicm.core, xicm.report) for m in pkgutil.iter_modules(p.__path__)];"
+        "names = [m.name for p in (xicm.core, xicm.report) for m in pkgutil.walk_packages(p.__path__, p.__name__ + '.')];"
         "[importlib.import_module(n) for n in names];"
         "print(len(names), [m for m in ('jinja2', 'matplotlib') if sys.modules.get(m) is not None])"
     )
@@ -238,7 +238,7 @@ def test_a_page_without_the_report_extra_is_one_sentence_and_the_tables_stay(tmp
 def test_a_run_without_the_report_extra_says_so_and_ends_as_usual(tmp_path, capsys, monkeypatch):
     from omegaconf import OmegaConf
 
-    from xicm.core.eval_job import _write_html
+    from xicm.core.assembly.eval_job import _write_html
 
     run = make_run(tmp_path / "run", {(L1, 0): [True]})
     for name in REPORT_EXTRA:

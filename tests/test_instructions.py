@@ -6,9 +6,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from xicm.core.errors import ConfigError
-from xicm.core.instructions import episode_instruction
-from xicm.core.types import KeyAction, Observation, TaskInfo
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.assembly.instructions import episode_instruction
+from xicm.core.contracts.types import KeyAction, Observation, TaskInfo
 
 
 
@@ -69,8 +69,8 @@ def test_sampled_leaves_another_variation_s_instruction():
 
 
 def test_an_unknown_choice_is_one_clear_sentence():
-    from xicm.core.config_schema import XicmConfig
-    from xicm.core.schema import check_overrides
+    from xicm.core.assembly.config_schema import XicmConfig
+    from xicm.core.contracts.schema import check_overrides
 
     with pytest.raises(ConfigError, match="benchmark.instructions"):
         check_overrides(["benchmark.instructions=random"], XicmConfig)

@@ -1,8 +1,8 @@
-"""core/keyed_window.py: run ahead, hand back in key order (the window of envs=N and Ray shards)."""
+"""src/xicm/core/execution/keyed_window.py: run ahead, hand back in key order (the window of envs=N and Ray shards)."""
 
 import pytest
 
-from xicm.core.keyed_window import KeyedWindow
+from xicm.core.execution.keyed_window import KeyedWindow
 
 KEYS = [("t", 0, e) for e in range(6)]
 

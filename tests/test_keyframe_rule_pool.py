@@ -4,12 +4,12 @@ X-ICM's key-frame rule; demos whose key frames do not change keep their stored a
 import numpy as np
 import pytest
 
-from xicm.core import encoding
-from xicm.core.dataset import load_pool
-from xicm.core.errors import ConfigError
-from xicm.core.interfaces import PolicyContext
-from xicm.core.plugins import get_registry
-from xicm.core.types import Demo, KeyAction, Trajectory
+from xicm.core.text import encoding
+from xicm.core.results.dataset import load_pool
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.contracts.interfaces import PolicyContext
+from xicm.core.assembly.plugins import get_registry
+from xicm.core.contracts.types import Demo, KeyAction, Trajectory
 from xicm.plugins.policies.xicm import XicmPolicyOptions, create_xicm_policy
 from xicm.plugins.policies.xicm.parts import rederive_key_actions
 

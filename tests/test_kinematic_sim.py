@@ -16,7 +16,7 @@ from kinematic_plugin import kinematic_env, kinematic_registry  # noqa: F401 - a
 from serve_wait import wait_for_serving
 from test_export import needs_lerobot
 
-from xicm.core.simulator_check import check_simulator
+from xicm.core.contracts.simulator_check import check_simulator
 from xicm.serving.ports import free_port
 
 BIN = Path(sys.executable).parent
@@ -85,7 +85,7 @@ def test_xicm_collect_gathers_a_pool_that_x_icm_evaluates_with(tmp_path, kinemat
     sim = kinematic_registry.create_simulator({"name": "kinematic", "cameras": ["top"], "image_size": 64})
     collected = xicm("xicm-collect", "collect.demos_per_task=3", "collect.workers=1", pool, *top_only, "hydra.run.dir=collect", cwd=tmp_path)
     assert "| push_cube_to_zone | 3 | 3 | 100.0 |" in collected.stdout and "| pick_cube_to_zone | 3 | 3 | 100.0 |" in collected.stdout
-    from xicm.core.dataset import load_pool
+    from xicm.core.results.dataset import load_pool
 
     first = load_pool(tmp_path / "pool.h5", ["pick_cube_to_zone"], with_images=True)[0]
     sim.reset("pick_cube_to_zone", first.seed, first.episode)  # the same scene, in this process

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from hydra import compose, initialize_config_module
 
-from xicm.core.run_dir import FOLDER_NAME_LIMIT, short_name
+from xicm.core.results.run_dir import FOLDER_NAME_LIMIT, short_name
 
 BIN = Path(sys.executable).parent
 

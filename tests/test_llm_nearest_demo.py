@@ -8,13 +8,13 @@ import re
 import pluggy
 import pytest
 
-from xicm.core import hookspecs
-from xicm.core.encoding import format_actions, quantise
-from xicm.core.errors import ConfigError
-from xicm.core.plugins import Registry
-from xicm.core.types import Demo, KeyAction, Prompt, Query
+from xicm.core.contracts import hookspecs
+from xicm.core.text.encoding import format_actions, quantise
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.assembly.plugins import Registry
+from xicm.core.contracts.types import Demo, KeyAction, Prompt, Query
 from xicm.plugins.llms import nearest_demo
-from xicm.core.reanchor import reanchor
+from xicm.core.text.reanchor import reanchor
 from xicm.plugins.llms.nearest_demo import NearestDemoLLM, NearestDemoOptions
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))

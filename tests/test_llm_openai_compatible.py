@@ -21,10 +21,10 @@ from pathlib import Path
 import pluggy
 import pytest
 
-from xicm.core import hookspecs
-from xicm.core.errors import ConfigError, LLMError
-from xicm.core.plugins import Registry
-from xicm.core.types import Prompt, Query
+from xicm.core.contracts import hookspecs
+from xicm.core.contracts.errors import ConfigError, LLMError
+from xicm.core.assembly.plugins import Registry
+from xicm.core.contracts.types import Prompt, Query
 from xicm.plugins.llms import openai_compatible
 from xicm.plugins.llms.action_grammar import ACTIONS_GBNF, ACTIONS_REGEX
 from xicm.plugins.llms.openai_compatible import OpenAICompatibleLLM
@@ -365,7 +365,7 @@ def test_hydra_style_options_are_plain_json(fake):
     """The registry hands the LLM its options as plain values, however the config held them."""
     from omegaconf import OmegaConf
 
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     options = OmegaConf.create({"name": "openai_compatible", "model": "test-model", "base_url": fake.base_url,
                                 "extra": {"stop": ["\n"], "seed": 1}})
@@ -391,7 +391,7 @@ def test_the_grammar_goes_in_the_servers_structured_output_field(fake, server, e
     """The scripted server answers prose unless the request carries a structured-output field."""
     import re
 
-    from xicm.core.parsing import ParseError, parse_actions
+    from xicm.core.text.parsing import ParseError, parse_actions
 
     fake.reply = "Sure! The robot should move to the jar and then close it."
     fake.constrained_reply = " [[50, 20, 14, 0, 36, 71, 1], [50, 20, 10, 0, 36, 71, 0]]"
@@ -423,7 +423,7 @@ def test_max_actions_bounds_the_list_in_every_servers_field(fake):
         assert field == (reply_gbnf(False, 2) if server == "llamacpp" else reply_regex(False, 2))
         assert json.loads(bounded.identity())["max_actions"] == 2
     assert "max_actions" not in json.loads(llm(fake, server="vllm").identity())
-    from xicm.core.schema import check_options
+    from xicm.core.contracts.schema import check_options
 
     with pytest.raises(ConfigError, match="max_actions"):  # checked with the config, before a run starts
         check_options({"model": "m", "max_actions": 27}, OpenAICompatibleOptions, "llm", "llm 'openai_compatible'")

@@ -13,10 +13,10 @@ import pluggy
 import pytest
 
 from tiny_gemma import TINY_GEMMA_POSITIONS, build_model, build_tokenizer
-from xicm.core import hookspecs
-from xicm.core.errors import ConfigError, LLMError
-from xicm.core.plugins import Registry
-from xicm.core.types import Prompt, Query
+from xicm.core.contracts import hookspecs
+from xicm.core.contracts.errors import ConfigError, LLMError
+from xicm.core.assembly.plugins import Registry
+from xicm.core.contracts.types import Prompt, Query
 from xicm.plugins.llms import model_files as mf
 from xicm.plugins.llms import transformers_local as tl
 from xicm.plugins.llms.rendering import render_plain, render_raw

@@ -4,35 +4,36 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "src" / "xicm"  # the src layout: pyproject's package-dir = {"" = "src"}
 
 
 def test_every_python_package_folder_is_listed_in_pyproject():
     listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    found = {"xicm"}
-    for top in ("core", "plugins", "conf", "export", "vla", "serving", "report", "lerobot"):
-        for init in (ROOT / top).rglob("__init__.py"):
-            if "assets" in init.parts:
-                continue
-            rel = init.parent.relative_to(ROOT)
-            found.add("xicm." + ".".join(rel.parts))
-    assert found == listed
+    assert tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"] == {"": "src"}
+    assert not (ROOT / "__init__.py").exists()  # the repository root is no package
+    found = set()
+    for init in PACKAGE.rglob("__init__.py"):
+        if "assets" in init.parts:
+            continue
+        found.add(".".join(("xicm", *init.parent.relative_to(PACKAGE).parts)))
+    assert "xicm" in found and found == listed
 
 
 def test_conf_yaml_files_are_covered_by_package_data():
     globs = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["xicm.conf"]
-    conf = ROOT / "conf"
+    conf = ROOT / "src/xicm/conf"
     yamls = {p.relative_to(conf) for p in conf.rglob("*.yaml")}
     covered = {p.relative_to(conf) for g in globs for p in conf.glob(g)}
     assert yamls and yamls == covered
 
 
 def test_default_plugins_name_existing_modules_and_are_not_also_entry_points():
-    from xicm.core.plugins import DEFAULT_PLUGINS
+    from xicm.core.assembly.plugins import DEFAULT_PLUGINS
 
     assert "entry-points" not in tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     for module in DEFAULT_PLUGINS.values():
         rel = module.removeprefix("xicm.").replace(".", "/")
-        assert (ROOT / f"{rel}.py").exists() or (ROOT / rel / "__init__.py").exists(), module
+        assert (PACKAGE / f"{rel}.py").exists() or (PACKAGE / rel / "__init__.py").exists(), module
 
 
 @pytest.mark.slow
@@ -60,7 +61,7 @@ def test_a_wheel_install_carries_configs_assets_and_plugins(tmp_path):
     target = tmp_path / "site"
     subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target), str(wheel)], check=True)
     code = (
-        "import xicm, xicm.core.plugins as p; from hydra import compose, initialize_config_module;"
+        "import xicm, xicm.core.assembly.plugins as p; from hydra import compose, initialize_config_module;"
         "initialize_config_module(config_module='xicm.conf', version_base='1.3').__enter__();"
         "cfg = compose('config', overrides=['llm=gemma3_270m']);"
         "print(xicm.__file__); print(cfg.llm.name); print(','.join(p.get_registry().names('task')))"

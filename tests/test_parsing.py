@@ -1,7 +1,7 @@
 import pytest
 
-from xicm.core import encoding, parsing
-from xicm.core.types import KeyAction
+from xicm.core.text import encoding, parsing
+from xicm.core.contracts.types import KeyAction
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))
 

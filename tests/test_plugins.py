@@ -7,10 +7,11 @@ import pytest
 
 import xicm
 
-from xicm.core import hookspecs, plugins
-from xicm.core.errors import ConfigError
-from xicm.core.hookspecs import hookimpl
-from xicm.core.types import TaskInfo
+from xicm.core.contracts import hookspecs
+from xicm.core.assembly import plugins
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.contracts.hookspecs import hookimpl
+from xicm.core.contracts.types import TaskInfo
 
 
 class Echo:
@@ -78,7 +79,7 @@ def test_a_throwaway_plugin_registers_and_unregisters():
 
 
 def test_every_built_in_llm_declares_whether_it_is_deterministic(registry):
-    from xicm.core.interfaces import LLM
+    from xicm.core.contracts.interfaces import LLM
 
     for name in registry.names("llm"):
         cls = registry.get("llm", name).factory
@@ -162,14 +163,14 @@ def test_every_hookspec_has_a_one_line_docstring_and_a_family():
 
 
 def test_xicm_plugins_command_prints_every_plugin():
-    out = subprocess.run([sys.executable, "-c", "from xicm.core.cli import plugins_main; plugins_main()"], capture_output=True, text=True, check=True).stdout
+    out = subprocess.run([sys.executable, "-c", "from xicm.core.assembly.cli import plugins_main; plugins_main()"], capture_output=True, text=True, check=True).stdout
     assert "nearest_demo 0.1.0: register_llms" in out
     assert "llm: " in out and "nearest_demo" in out
 
 
 def test_core_and_plugin_modules_import_no_heavy_library():
     code = (
-        "import sys, xicm.core.cli, xicm.core.build, xicm.core.eval_job, xicm.core.plugins as p;"
+        "import sys, xicm.core.assembly.cli, xicm.core.assembly.build, xicm.core.assembly.eval_job, xicm.core.assembly.plugins as p;"
         "p.get_registry();"
         "heavy = [m for m in ('torch', 'sapien', 'transformers', 'wandb', 'diffusers', 'sentence_transformers') if m in sys.modules];"
         "print(','.join(heavy))"
@@ -189,7 +190,7 @@ def test_docs_list_every_hook_and_every_interface_method_with_its_signature():
     import re
     from pathlib import Path
 
-    from xicm.core import interfaces
+    from xicm.core.contracts import interfaces
 
     doc = (Path(__file__).parents[1] / "docs" / "plugin-authors.md").read_text()
     for name, f in inspect.getmembers(hookspecs, inspect.isfunction):
@@ -224,12 +225,12 @@ def third_party(tmp_path, monkeypatch):
     _fake_distribution(tmp_path, "xicm_broken", "xicm_broken", "import no_such_module_anywhere\n", {"broken": "xicm_broken"})
     _fake_distribution(
         tmp_path, "xicm_raises", "xicm_raises",
-        "from xicm.core.hookspecs import hookimpl\n@hookimpl\ndef register_llms(register):\n    raise RuntimeError('no licence key')\n",
+        "from xicm.core.contracts.hookspecs import hookimpl\n@hookimpl\ndef register_llms(register):\n    raise RuntimeError('no licence key')\n",
         {"raises": "xicm_raises"},
     )
     _fake_distribution(
         tmp_path, "xicm_good", "xicm_good",
-        "from xicm.core.hookspecs import hookimpl\nclass Parrot:\n    deterministic = True\n    def complete(self, prompt):\n        return 'ok'\n"
+        "from xicm.core.contracts.hookspecs import hookimpl\nclass Parrot:\n    deterministic = True\n    def complete(self, prompt):\n        return 'ok'\n"
         "@hookimpl\ndef register_llms(register):\n    register('parrot', Parrot)\n",
         {"good": "xicm_good"},
     )
@@ -264,7 +265,7 @@ def test_load_and_disable_lists_choose_the_plugins(third_party):
 
 
 def test_a_third_party_plugin_reusing_a_built_in_name_is_left_out_and_named(tmp_path, monkeypatch):
-    source = "from xicm.core.hookspecs import hookimpl\n@hookimpl\ndef register_llms(register):\n    register('clash', object)\n"
+    source = "from xicm.core.contracts.hookspecs import hookimpl\n@hookimpl\ndef register_llms(register):\n    register('clash', object)\n"
     _fake_distribution(tmp_path, "xicm_clash", "xicm_clash", source, {"sapien": "xicm_clash"})
     monkeypatch.syspath_prepend(str(tmp_path))
     for var in ("XICM_LOAD_PLUGINS", "XICM_DISABLE_PLUGINS"):

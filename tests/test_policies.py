@@ -2,10 +2,10 @@
 
 import pytest
 
-from xicm.core.episode import run_episode
-from xicm.core.errors import EpisodeFailure
-from xicm.core.interfaces import Policy
-from xicm.core.types import KeyAction
+from xicm.core.execution.episode import run_episode
+from xicm.core.contracts.errors import EpisodeFailure
+from xicm.core.contracts.interfaces import Policy
+from xicm.core.contracts.types import KeyAction
 from xicm.plugins.policies.oracle import OraclePolicy
 
 DOWN = (0.0, 1.0, 0.0, 0.0)
@@ -77,7 +77,7 @@ def test_unreachable_action_is_the_episode_outcome(sim):
 
 
 def test_a_simulator_without_scripted_solutions_says_so(sim):
-    from xicm.core.interfaces import Simulator
+    from xicm.core.contracts.interfaces import Simulator
 
     class Bare(type(sim)):
         scripted_solution = Simulator.scripted_solution  # the interface's default
@@ -91,7 +91,7 @@ def test_joint_actions_are_executed_like_key_actions(sim):
     import numpy as np
     import sapien
 
-    from xicm.core.types import JointAction
+    from xicm.core.contracts.types import JointAction
 
     sim.reset_state("close_microwave", 0, 0)
     q0 = sim.robot.arm_qpos()

@@ -5,9 +5,10 @@ import re
 import numpy as np
 import pluggy
 
-from xicm.core import encoding, hookspecs
-from xicm.core.plugins import Registry
-from xicm.core.types import Demo, KeyAction, Prompt, Query
+from xicm.core.text import encoding
+from xicm.core.contracts import hookspecs
+from xicm.core.assembly.plugins import Registry
+from xicm.core.contracts.types import Demo, KeyAction, Prompt, Query
 from xicm.plugins.prompts import xicm_prompt
 
 WS = ((-0.3, -0.5, 0.6), (0.7, 0.5, 1.6))

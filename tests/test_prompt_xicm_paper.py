@@ -3,10 +3,10 @@
 import pluggy
 import pytest
 
-from xicm.core import hookspecs
-from xicm.core.errors import ConfigError
-from xicm.core.plugins import Registry
-from xicm.core.types import Demo, KeyAction, Query
+from xicm.core.contracts import hookspecs
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.assembly.plugins import Registry
+from xicm.core.contracts.types import Demo, KeyAction, Query
 from xicm.plugins.prompts import xicm_paper
 from xicm.plugins.prompts.xicm_paper_objects import PAPER_OBJECTS, paper_objects
 

@@ -1,4 +1,4 @@
-"""plugins/llms/pypi_sdist.py against a real HTTP index on 127.0.0.1 serving PEP 691's JSON form:
+"""src/xicm/plugins/llms/pypi_sdist.py against a real HTTP index on 127.0.0.1 serving PEP 691's JSON form:
 the file is saved under its name only when its sha256 matches the index's (and the pinned one)."""
 
 import hashlib

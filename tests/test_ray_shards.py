@@ -18,11 +18,11 @@ import pytest
 from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
-from xicm.core.errors import XicmError
-from xicm.core.run_dir import config_fingerprint
-from xicm.core.config_schema import Shards
-from xicm.core.episode_runner import shard_options
-from xicm.core.ray_shards import RayEpisodeShards
+from xicm.core.contracts.errors import XicmError
+from xicm.core.results.run_dir import config_fingerprint
+from xicm.core.assembly.config_schema import Shards
+from xicm.core.execution.episode_runner import shard_options
+from xicm.core.execution.ray_shards import RayEpisodeShards
 from xicm.serving.ports import free_port
 
 from ray_cluster import RayNodes
@@ -55,7 +55,7 @@ def _worker_counts(output: str) -> dict[int, int]:
 
 def test_ray_is_imported_only_when_a_run_uses_it():
     code = (
-        "import sys; from xicm.core import eval_job, episode_runner;"
+        "import sys; from xicm.core.assembly import eval_job; from xicm.core.execution import episode_runner;"
         "episode_runner.shard_options(__import__('omegaconf').OmegaConf.create({'shards': {'backend': 'local', "
         "'workers': 1, 'address': None, 'cpus_per_worker': 1}}));"
         "print('ray' in sys.modules)"
@@ -172,7 +172,7 @@ def test_a_killed_worker_s_episodes_run_on_the_other_and_losing_the_last_one_sto
     assert not ray.is_initialized()
 
 PID_POLICY = '''import os
-from xicm.core.hookspecs import hookimpl
+from xicm.core.contracts.hookspecs import hookimpl
 from xicm.plugins.policies.oracle import OraclePolicy
 
 def create(context, **options):

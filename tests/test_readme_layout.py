@@ -26,16 +26,16 @@ def test_the_layout_sections_are_what_the_script_writes(layout, name):
 def test_every_package_folder_and_module_has_its_line(layout):
     readme = (layout.ROOT / "README.md").read_text()
     design = (layout.ROOT / "docs/DESIGN.md").read_text()
-    for folder in ("core", "plugins/policies/xicm", "report", "serving", "vla", "export", "lerobot", "tests"):
+    for folder in ("src/xicm", "src/xicm/core", "src/xicm/core/contracts", "src/xicm/plugins/policies/xicm", "src/xicm/report", "src/xicm/serving", "src/xicm/vla", "src/xicm/export", "src/xicm/lerobot", "tests"):
         assert f"\n{folder}/ " in readme, folder
-    for module in ("report/summary.py", "lerobot/env.py", "plugins/policies/xicm/llm_cache.py", "core/spaces.py"):
+    for module in ("src/xicm/report/summary.py", "src/xicm/lerobot/env.py", "src/xicm/plugins/policies/xicm/llm_cache.py", "src/xicm/core/contracts/spaces.py"):
         assert f"\n  {Path(module).name} " in design.split(f"\n{Path(module).parent}/ ", 1)[1], module
 
 
 def test_a_stale_section_is_found_then_rewritten(layout, tmp_path, capsys):
     for name in layout.MARKERS:
         (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
-        (tmp_path / name).write_text((layout.ROOT / name).read_text().replace("\nreport/ ", "\nreports/ ", 1))
+        (tmp_path / name).write_text((layout.ROOT / name).read_text().replace("\nsrc/xicm/report/ ", "\nreports/ ", 1))
     assert layout.main(["--check"], docs_root=tmp_path) == 1
     assert capsys.readouterr().err == "stale layout section in README.md, docs/DESIGN.md: run python scripts/readme_layout.py\n"
     assert layout.main([], docs_root=tmp_path) == 0 and layout.main(["--check"], docs_root=tmp_path) == 0

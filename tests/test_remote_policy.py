@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from serve_wait import wait_for_serving
 
-from xicm.core.build import Run
-from xicm.core.episode import run_episode
-from xicm.core.errors import EpisodeFailure
-from xicm.core.interfaces import Policy
+from xicm.core.assembly.build import Run
+from xicm.core.execution.episode import run_episode
+from xicm.core.contracts.errors import EpisodeFailure
+from xicm.core.contracts.interfaces import Policy
 from xicm.plugins.policies.oracle import OraclePolicy
 from xicm.plugins.policies.remote import RemotePolicy, RemotePolicyOptions
 from xicm.serving.client import PolicyClient, server_uri
@@ -98,7 +98,7 @@ def test_the_observation_is_mapped_to_the_servers_keys(sim):
 
 
 def test_a_served_oracle_plays_exactly_the_oracles_episodes(sim):
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     server_sim = get_registry().create_simulator({"name": "sapien", "image_size": 32, "cameras": ["front"]})
     served = ServedPolicy(Run(server_sim, OraclePolicy(server_sim), "oracle"))
@@ -136,7 +136,7 @@ def test_a_served_episode_reads_the_same_reworded_instruction_as_a_local_one(sim
     """benchmark.instructions=sampled rewords variation 0's instruction per episode: the server
     starts its episodes as a local run does (core.episode.start_episode), even for a client
     that does not reword."""
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     task, episodes = "close_fridge", range(4)
     server_sim = get_registry().create_simulator({"name": "sapien", "image_size": 32, "cameras": ["front"]})
@@ -237,7 +237,7 @@ def test_an_image_mapping_on_the_command_line_replaces_the_default_whole():
     ],
 )
 def test_a_control_mode_or_state_field_the_simulator_does_not_declare_is_one_sentence(sim, options, words):
-    from xicm.core.errors import ConfigError
+    from xicm.core.contracts.errors import ConfigError
 
     server = PolicyServer(Replies(), port=0).start()
     try:

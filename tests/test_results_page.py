@@ -1,4 +1,4 @@
-"""The results page (xicm-report --results-page, report/results_page.py): the committed
+"""The results page (xicm-report --results-page, src/xicm/report/results_page.py): the committed
 results/README.md and index.html are what the committed rows give; on run folders fabricated with
 the project's own writers every figure on the page is the one computed here independently (scipy's
 binomial test, a hand count of the discordant episodes); a folder that cannot be read is one
@@ -15,8 +15,8 @@ import pytest
 import yaml
 from scipy.stats import binomtest
 
-from xicm.core.atomic import write_atomic, write_json_atomic
-from xicm.core.run_dir import IDENTITY, RunDir, config_fingerprint, identity
+from xicm.core.results.atomic import write_atomic, write_json_atomic
+from xicm.core.results.run_dir import IDENTITY, RunDir, config_fingerprint, identity
 from xicm.report import table2
 from xicm.report.cli import main as report_main
 from xicm.report.html_results import page_html

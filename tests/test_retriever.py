@@ -4,11 +4,11 @@ import numpy as np
 import pluggy
 import pytest
 
-from xicm.core import hookspecs
-from xicm.core.errors import ConfigError
-from xicm.core.interfaces import Encoder
-from xicm.core.plugins import Registry
-from xicm.core.types import Demo, KeyAction, Query
+from xicm.core.contracts import hookspecs
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.contracts.interfaces import Encoder
+from xicm.core.assembly.plugins import Registry
+from xicm.core.contracts.types import Demo, KeyAction, Query
 from xicm.plugins.retrievers import random as random_retriever
 from xicm.plugins.retrievers import similarity
 from xicm.plugins.retrievers.random import RandomOptions, RandomRetriever

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from xicm.core.errors import ConfigError
-from xicm.core.plugins import get_registry
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.assembly.plugins import get_registry
 from xicm.plugins.simulators.sapien.options import ROBOTS
 from xicm.plugins.simulators.sapien.scene import ROBOT_PLACEMENTS, TABLE_TOP_Z
 

@@ -1,4 +1,4 @@
-"""The run folder (core/run_dir.py): layout, finding runs, episode rows, and the one list of
+"""The run folder (src/xicm/core/results/run_dir.py): layout, finding runs, episode rows, and the one list of
 config keys outside a run's identity, which the fingerprint and the multirun folder names share."""
 
 import json
@@ -8,8 +8,8 @@ from hydra import compose, initialize_config_module
 from omegaconf import OmegaConf
 
 import xicm.conf  # noqa: F401  (registers the configs' resolvers)
-from xicm.core.errors import ConfigError
-from xicm.core.run_dir import (
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.results.run_dir import (
     ADDED_ON_RESUME,
     GROWS_ON_RESUME,
     IDENTITY,
@@ -124,7 +124,7 @@ def test_override_keys_and_prefix_matching():
     assert outside_identity("seeds", GROWS_ON_RESUME) and not outside_identity("seeds")
 
 
-# One override for every top-level key of conf/config.yaml; the test fails when a key is added
+# One override for every top-level key of src/xicm/conf/config.yaml; the test fails when a key is added
 # without deciding whether it belongs to a run's identity.
 SAMPLE_OVERRIDES = {
     "simulator": "simulator.image_size=96", "detector": "detector=noisy_oracle", "encoder": "encoder=dynamics",
@@ -151,7 +151,7 @@ def test_every_config_key_is_sampled():
 @pytest.mark.parametrize("key", sorted(SAMPLE_OVERRIDES))
 def test_fingerprint_and_folder_name_agree_on_what_a_run_is(key):
     """A key outside a run's identity changes neither the fingerprint nor the multirun folder
-    name (conf/config.yaml's exclude_keys); any other key changes the folder name, and the
+    name (src/xicm/conf/config.yaml's exclude_keys); any other key changes the folder name, and the
     fingerprint too unless a resumed run may grow it (seeds, episodes)."""
     override = SAMPLE_OVERRIDES[key]
     same_fingerprint = config_fingerprint(_compose([override])) == config_fingerprint(_compose([]))

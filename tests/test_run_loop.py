@@ -3,9 +3,9 @@
 
 import json
 
-from xicm.core.run_loop import run_all_episodes
-from xicm.core.run_dir import EPISODES, episode_keys
-from xicm.core.types import EpisodeResult
+from xicm.core.execution.run_loop import run_all_episodes
+from xicm.core.results.run_dir import EPISODES, episode_keys
+from xicm.core.contracts.types import EpisodeResult
 
 
 class Recorder:

@@ -10,7 +10,7 @@ from task_demos import go, hold_at_release, moved
 
 @pytest.fixture(scope="module")
 def sims():
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     made = {m: get_registry().create_simulator({"name": "sapien", "render": False, "grasp": m}) for m in ("attach", "friction")}
     yield made
@@ -82,8 +82,8 @@ def test_a_task_declares_its_graspable_objects_else_its_dynamic_actors(sims):
 
 
 def test_an_unknown_grasp_mode_is_one_clear_sentence():
-    from xicm.core.errors import ConfigError
-    from xicm.core.plugins import get_registry
+    from xicm.core.contracts.errors import ConfigError
+    from xicm.core.assembly.plugins import get_registry
 
     with pytest.raises(ConfigError, match="^simulator.grasp must be one of attach, friction, not 'glue'$"):
         get_registry().create_simulator({"name": "sapien", "render": False, "grasp": "glue"})

@@ -5,8 +5,8 @@ import sys
 
 import pytest
 
-from xicm.core import plugins
-from xicm.core.types import TaskInfo
+from xicm.core.assembly import plugins
+from xicm.core.contracts.types import TaskInfo
 
 
 @pytest.fixture(scope="module")
@@ -16,7 +16,7 @@ def registry():
 
 def test_building_the_registry_imports_no_sapien_until_a_task_is_used():
     code = (
-        "import sys, xicm.core.plugins as p; r = p.Registry(p.make_plugin_manager()); "
+        "import sys, xicm.core.assembly.plugins as p; r = p.Registry(p.make_plugin_manager()); "
         "print(len(r.tasks(simulator='sapien')), 'sapien' in sys.modules, end=' '); "
         "r.task_info('open_drawer'); print('sapien' in sys.modules)"
     )

@@ -11,9 +11,9 @@ import sys
 import numpy as np
 import pytest
 
-from xicm.core.parsing import MAX_ACTIONS
-from xicm.core.plugins import get_registry
-from xicm.core.types import KeyAction
+from xicm.core.text.parsing import MAX_ACTIONS
+from xicm.core.assembly.plugins import get_registry
+from xicm.core.contracts.types import KeyAction
 from xicm.plugins.simulators.sapien.replay import demo_key_actions, replay
 
 TASKS = list(get_registry().tasks(simulator="sapien"))  # every task registered for SAPIEN gets the generic tests
@@ -53,7 +53,7 @@ def test_seeded_reset_is_reproducible(sim, task):
 def test_same_seed_gives_the_same_scene_in_another_process(physics_sim):
     code = (
         "import json, numpy as np\n"
-        "from xicm.core.plugins import get_registry\n"
+        "from xicm.core.assembly.plugins import get_registry\n"
         "sim = get_registry().create_simulator({'name': 'sapien', 'render': False})\n"
         "out = {}\n"
         f"for task in {TASKS!r}:\n"

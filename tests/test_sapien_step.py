@@ -1,17 +1,17 @@
 """Per-step control of the SAPIEN simulator: step(action) in the four control modes, proprio,
-control-rate recordings of scripted demos and replaying them (plugins/simulators/sapien)."""
+control-rate recordings of scripted demos and replaying them (src/xicm/plugins/simulators/sapien)."""
 
 import numpy as np
 import pytest
 
-from xicm.core.errors import ConfigError
+from xicm.core.contracts.errors import ConfigError
 
 SEED = 10_000  # the collection seed: the scenes a training set is recorded on
 
 
 @pytest.fixture(scope="module")
 def physics():
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     simulator = get_registry().create_simulator({"name": "sapien", "render": False})
     yield simulator
@@ -127,7 +127,7 @@ def test_a_bad_or_unreachable_action_is_a_failed_step_with_one_sentence(physics,
     ],
 )
 def test_bad_control_options_are_one_sentence_before_anything_is_built(options, words):
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     with pytest.raises(ConfigError, match=None) as info:
         registry = get_registry()
@@ -137,7 +137,7 @@ def test_bad_control_options_are_one_sentence_before_anything_is_built(options, 
 
 
 def test_a_simulator_without_per_step_control_says_so_by_name():
-    from xicm.core.interfaces import Simulator
+    from xicm.core.contracts.interfaces import Simulator
 
     class KeyOnly(Simulator):
         task_names = task_info = reset = observe = execute = is_success = demonstrate = lambda *a: None

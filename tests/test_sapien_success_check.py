@@ -6,7 +6,7 @@ import pytest
 
 @pytest.fixture(scope="module")
 def sims():
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     made = {
         c: get_registry().create_simulator({"name": "sapien", "render": False, "success_check": c})
@@ -73,8 +73,8 @@ def test_knife_on_the_board_then_let_go_latches_per_frame(sims, monkeypatch):
 
 
 def test_an_unknown_success_check_is_one_clear_sentence():
-    from xicm.core.errors import ConfigError
-    from xicm.core.plugins import get_registry
+    from xicm.core.contracts.errors import ConfigError
+    from xicm.core.assembly.plugins import get_registry
 
     with pytest.raises(ConfigError, match="^simulator.success_check must be one of per_action, per_frame, not 'often'$"):
         get_registry().create_simulator({"name": "sapien", "render": False, "success_check": "often"})
@@ -86,7 +86,7 @@ def test_gripper_after_success_runs_the_command_and_reads_success_once():
     gripper_after_success (the lid drops, and success is read after: not met), as X-ICM's RLBench."""
     from dataclasses import replace
 
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     seen = {}
     for after in (False, True):

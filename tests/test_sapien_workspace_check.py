@@ -4,9 +4,9 @@ top to 1 m above it) with their own error kind; x/y stay the grid box's."""
 import numpy as np
 import pytest
 
-from xicm.core.errors import ERROR_KINDS
-from xicm.core.plugins import get_registry
-from xicm.core.types import KeyAction
+from xicm.core.contracts.errors import ERROR_KINDS
+from xicm.core.assembly.plugins import get_registry
+from xicm.core.contracts.types import KeyAction
 
 DOWN = (0, 1, 0, 0)
 
@@ -51,15 +51,15 @@ def test_xy_stay_the_grid_boxs_under_either_check(checked):
 
 def test_the_kind_is_declared_and_a_bad_value_is_refused():
     assert "out_of_workspace" in ERROR_KINDS
-    from xicm.core.errors import ConfigError
+    from xicm.core.contracts.errors import ConfigError
 
     with pytest.raises(ConfigError, match="workspace_check"):
         get_registry().create_simulator({"name": "sapien", "render": False, "workspace_check": "box"})
 
 
 def test_an_episode_ends_with_the_kind(sim):
-    from xicm.core.episode import run_episode
-    from xicm.core.interfaces import Policy
+    from xicm.core.execution.episode import run_episode
+    from xicm.core.contracts.interfaces import Policy
 
     class Upward(Policy):
         def act(self, obs):

@@ -3,9 +3,9 @@ the policy's random stream still follows the run's seed."""
 
 import numpy as np
 
-from xicm.core.episode import run_episode
-from xicm.core.errors import EpisodeFailure
-from xicm.core.interfaces import Policy
+from xicm.core.execution.episode import run_episode
+from xicm.core.contracts.errors import EpisodeFailure
+from xicm.core.contracts.interfaces import Policy
 
 
 class FirstLook(Policy):
@@ -38,9 +38,9 @@ def test_the_same_scene_under_every_seed_while_the_policy_stream_follows_the_see
 def test_scene_seed_is_checked_by_the_config_schema():
     import pytest
 
-    from xicm.core.config_schema import Benchmark
-    from xicm.core.errors import ConfigError
-    from xicm.core.schema import check_options
+    from xicm.core.assembly.config_schema import Benchmark
+    from xicm.core.contracts.errors import ConfigError
+    from xicm.core.contracts.schema import check_options
 
     base = {"name": "b", "tasks": ["close_jar"], "pool": "p", "pool_tasks": ["close_jar"], "variations": "sampled",
             "instructions": "agnostos"}
@@ -51,7 +51,7 @@ def test_scene_seed_is_checked_by_the_config_schema():
 
 
 def test_scene_seed_is_part_of_the_run_identity():
-    from xicm.core.run_dir import identity
+    from xicm.core.results.run_dir import identity
 
     ids = [identity({"seeds": [0, 1], "benchmark": {"name": "agnostos", "scene_seed": s}}) for s in (None, 0)]
     assert ids[0]["benchmark.scene_seed"] is None and ids[1]["benchmark.scene_seed"] == 0

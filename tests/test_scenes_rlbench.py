@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from xicm.core.errors import ConfigError, EpisodeFailure
-from xicm.core.plugins import get_registry
+from xicm.core.contracts.errors import ConfigError, EpisodeFailure
+from xicm.core.assembly.plugins import get_registry
 from xicm.plugins.simulators.sapien.task_base import yaw_of
 
 

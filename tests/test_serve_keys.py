@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from xicm.core.errors import ConfigError
-from xicm.core.literal_keys import refuse_literal_keys, refuse_literal_keys_on_command_line
+from xicm.core.contracts.errors import ConfigError
+from xicm.core.assembly.literal_keys import refuse_literal_keys, refuse_literal_keys_on_command_line
 from xicm.serving.client import PolicyClient, ServerError, server_uri
 from xicm.serving.keys import KeyNotSet, key_from_env, key_matches
 from xicm.serving.ports import free_port, start_server

@@ -1,15 +1,15 @@
-"""check_simulator (xicm.core.simulator_check), the contract check any simulator plugin can run,
+"""check_simulator (xicm.core.contracts.simulator_check), the contract check any simulator plugin can run,
 passes on SAPIEN rendered and physics-only, and names the breach when a simulator breaks it."""
 
 import numpy as np
 import pytest
 
-from xicm.core.simulator_check import ContractBreach, check_simulator
+from xicm.core.contracts.simulator_check import ContractBreach, check_simulator
 
 
 @pytest.fixture(scope="module")
 def physics():
-    from xicm.core.plugins import get_registry
+    from xicm.core.assembly.plugins import get_registry
 
     simulator = get_registry().create_simulator({"name": "sapien", "render": False, "control_mode": "joint_delta"})
     yield simulator
@@ -48,8 +48,8 @@ def test_a_simulator_in_a_worker_process_keeps_the_contract():
     from hydra import compose, initialize_config_module
     from omegaconf import OmegaConf
 
-    from xicm.core.interfaces import Simulator
-    from xicm.core.sim_process import SimulatorProcess
+    from xicm.core.contracts.interfaces import Simulator
+    from xicm.core.execution.sim_process import SimulatorProcess
 
     local_only = {"set_frame_callback"}  # a callback cannot cross a process boundary
     contract = {n for n, f in vars(Simulator).items() if callable(f) and not n.startswith("_")} - local_only

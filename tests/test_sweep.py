@@ -7,7 +7,7 @@ import re
 import pytest
 
 from xicm.report.cli import main as report_main
-from xicm.core.run_dir import find_runs
+from xicm.core.results.run_dir import find_runs
 from xicm.report.sweep import collect_sweep
 
 SPLITS = {"a": "level1", "b": "level2"}

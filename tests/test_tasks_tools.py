@@ -12,7 +12,7 @@ import numpy as np
 import sapien
 from task_demos import go, moved, paper_sim, run_demo  # noqa: F401 (paper_sim: a fixture)
 
-from xicm.core.types import KeyAction
+from xicm.core.contracts.types import KeyAction
 from xicm.plugins.simulators.sapien.scene import TABLE_TOP_Z
 
 

@@ -32,7 +32,7 @@ packages = ["xicm_reach_marker"]
 """
 
 PLUGIN = """\
-from xicm.core.hookspecs import hookimpl
+from xicm.core.contracts.hookspecs import hookimpl
 
 from xicm_reach_marker.task import ReachAboveMarker
 

@@ -1,6 +1,6 @@
 from pathlib import Path
 
-from xicm.core.tracking import Tracker
+from xicm.core.results.tracking import Tracker
 
 
 def test_disabled_tracker_writes_nothing(tmp_path):
@@ -28,7 +28,7 @@ def test_a_run_logs_the_table2_table_and_its_level_bars(tmp_path, monkeypatch):
     the per-level bar chart's data are media files of the run."""
     import json
 
-    from xicm.core.eval_job import _track_summary
+    from xicm.core.assembly.eval_job import _track_summary
     from xicm.report.summary import summarise
 
     monkeypatch.delenv("WANDB_MODE", raising=False)

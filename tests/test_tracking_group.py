@@ -9,8 +9,8 @@ from hydra import compose, initialize_config_module
 from hydra.core.hydra_config import HydraConfig
 
 import xicm.conf  # noqa: F401  (registers the configs' resolvers)
-from xicm.core.run_dir import short_name
-from xicm.core.tracking import WANDB_LABEL_LIMIT, Tracker, current_job_overrides
+from xicm.core.results.run_dir import short_name
+from xicm.core.results.tracking import WANDB_LABEL_LIMIT, Tracker, current_job_overrides
 
 
 def _records(path: Path) -> list[bytes]:

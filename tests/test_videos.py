@@ -11,14 +11,14 @@ from pathlib import Path
 import imageio.v2 as imageio
 import pytest
 
-from xicm.core import video as video_module
+from xicm.core.results import video as video_module
 from xicm.plugins.policies.xicm.policy import XICMPolicy
-from xicm.core.episode import run_episode
-from xicm.core.interfaces import LLM
-from xicm.core.plugins import get_registry
+from xicm.core.execution.episode import run_episode
+from xicm.core.contracts.interfaces import LLM
+from xicm.core.assembly.plugins import get_registry
 from xicm.report.summary import media_lines
-from xicm.core.types import Demo, KeyAction
-from xicm.core.video import VideoSettings
+from xicm.core.contracts.types import Demo, KeyAction
+from xicm.core.results.video import VideoSettings
 from xicm.plugins.policies.oracle import OraclePolicy
 
 TASK = "push_buttons"  # the oracle solves it in ~8 key actions, ~90 frames
@@ -169,7 +169,7 @@ def test_xicm_eval_records_videos_lists_them_and_logs_them_to_an_offline_wandb_g
 
     run = offline_run_record(out)
     assert run.run_group == "smoke"  # the experiment preset groups the sweep's runs
-    # tags are the overrides that define the run: not video.* or progress (core/run_dir.OUTSIDE_IDENTITY)
+    # tags are the overrides that define the run: not video.* or progress (src/xicm/core/results/run_dir.OUTSIDE_IDENTITY)
     assert "policy=oracle" in run.tags and not {"video.enabled=true", "progress=false"} & set(run.tags)
     logged = list((out / "wandb").glob(f"offline-run-*/files/media/videos/videos/{TASK}_*.mp4"))
     assert len(logged) == 1

@@ -1,4 +1,4 @@
-"""Decoding frames from an untrusted peer (serving/wire.py): only bool, integer and float arrays,
+"""Decoding frames from an untrusted peer (src/xicm/serving/wire.py): only bool, integer and float arrays,
 shapes that match their bytes, caps on sizes and nesting; anything else is one WireError, never a
 crash. Then the same frames against a real policy server and client on 127.0.0.1."""
 
@@ -11,9 +11,9 @@ import pytest
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from xicm.core.errors import EpisodeFailure
-from xicm.core.spaces import ControlSpec, key_pose_mode, layout
-from xicm.core.types import CameraFrame, KeyAction, Observation
+from xicm.core.contracts.errors import EpisodeFailure
+from xicm.core.contracts.spaces import ControlSpec, key_pose_mode, layout
+from xicm.core.contracts.types import CameraFrame, KeyAction, Observation
 from xicm.plugins.policies.remote import RemotePolicy, RemotePolicyOptions
 from xicm.serving import wire
 from xicm.serving.client import PolicyClient, ServerError, server_uri

@@ -1,4 +1,4 @@
-"""X-ICM's own per-episode logs (report/xicm_logs.yaml): every name is one of our 41 tasks, every
+"""X-ICM's own per-episode logs (src/xicm/report/xicm_logs.yaml): every name is one of our 41 tasks, every
 transcribed seed agrees with the three records upstream printed for it, the per-task means give
 back the paper's per-level figures, and bad entries are refused with one sentence."""
 
@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_every_task_in_the_logs_is_one_of_our_41_tasks_and_each_run_covers_the_23_unseen():
-    bench = yaml.safe_load((ROOT / "conf/benchmark/agnostos.yaml").read_text())
+    bench = yaml.safe_load((ROOT / "src/xicm/conf/benchmark/agnostos.yaml").read_text())
     ours = set(bench["tasks"]) | set(bench["pool_tasks"])
     assert len(ours) == 41
     runs = xicm_logs.runs()

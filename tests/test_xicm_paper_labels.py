@@ -3,11 +3,11 @@ and shown in X-ICM's order; the policy asks the detector for the parts the promp
 
 import numpy as np
 
-from xicm.core import encoding
-from xicm.core.episode import run_episode
-from xicm.core.interfaces import LLM
-from xicm.core.plugins import get_registry
-from xicm.core.types import Demo, KeyAction, Query
+from xicm.core.text import encoding
+from xicm.core.execution.episode import run_episode
+from xicm.core.contracts.interfaces import LLM
+from xicm.core.assembly.plugins import get_registry
+from xicm.core.contracts.types import Demo, KeyAction, Query
 from xicm.plugins.policies.xicm.policy import XICMPolicy
 from xicm.plugins.prompts.xicm_paper_objects import PAPER_OBJECTS, PARTS, part_names
 

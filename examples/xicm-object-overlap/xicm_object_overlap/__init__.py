@@ -15,8 +15,8 @@ import re
 
 import numpy as np
 
-from xicm.core.hookspecs import hookimpl
-from xicm.core.interfaces import Retriever
+from xicm.core.contracts.hookspecs import hookimpl
+from xicm.core.contracts.interfaces import Retriever
 
 __version__ = "0.1.0"
 

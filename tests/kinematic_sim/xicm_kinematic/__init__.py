@@ -10,8 +10,8 @@ recording and xicm-serve-policy.
 from dataclasses import dataclass, field
 from typing import Any, List
 
-from xicm.core.hookspecs import hookimpl
-from xicm.core.schema import above, one_of, rule
+from xicm.core.contracts.hookspecs import hookimpl
+from xicm.core.contracts.schema import above, one_of, rule
 
 from .render import CAMERAS
 from .simulator import STEP_MODES

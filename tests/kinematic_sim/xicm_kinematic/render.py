@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from xicm.core.types import CameraFrame
+from xicm.core.contracts.types import CameraFrame
 
 from .world import HALF, ZONE_HALF, World
 

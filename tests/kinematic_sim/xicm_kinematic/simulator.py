@@ -1,5 +1,5 @@
 """KinematicSimulator: the xicm Simulator contract over the kinematic world (world.py), a
-second simulator beside SAPIEN that proves every track goes through core/interfaces.py.
+second simulator beside SAPIEN that proves every track goes through src/xicm/core/contracts/interfaces.py.
 
 Time is counted in control periods: a period moves the TCP at most lin_speed / control_hz
 metres towards its target and then sets the gripper. A key action is played as the periods that
@@ -12,10 +12,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from xicm.core.interfaces import Simulator
-from xicm.core.seeding import episode_rng
-from xicm.core.spaces import GRIPPER_CLOSED, GRIPPER_OPEN, GRIPPER_THRESHOLD, ControlSpec, key_pose_mode, layout
-from xicm.core.types import ControlRecording, KeyAction, Observation, StepOutcome, TaskInfo, Trajectory
+from xicm.core.contracts.interfaces import Simulator
+from xicm.core.assembly.seeding import episode_rng
+from xicm.core.contracts.spaces import GRIPPER_CLOSED, GRIPPER_OPEN, GRIPPER_THRESHOLD, ControlSpec, key_pose_mode, layout
+from xicm.core.contracts.types import ControlRecording, KeyAction, Observation, StepOutcome, TaskInfo, Trajectory
 
 from .render import CAMERAS, SEGMENTS, render
 from .world import WORKSPACE, World

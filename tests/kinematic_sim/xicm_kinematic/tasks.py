@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from xicm.core.types import KeyAction
+from xicm.core.contracts.types import KeyAction
 
 from .world import HALF, World
 
