@@ -34,7 +34,8 @@ import threading
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from bench_llm_stage import llm_options  # the options of `llm=<alias>` as a run composes them
+
 
 #: mode -> (option overrides, concurrent episodes)
 MODES = {
@@ -68,18 +69,6 @@ def recorded_episodes(run_dir: Path, limit: int) -> list[list[list[dict]]]:
             if by_task[task] and len(mixed) < limit:
                 mixed.append(by_task[task].pop(0))
     return mixed
-
-
-def llm_options(alias: str, overrides: dict) -> dict:
-    """The options of `llm=<alias>` as a run composes them, with `overrides` on top."""
-    from hydra import compose, initialize_config_module
-    from omegaconf import OmegaConf
-
-    with initialize_config_module(config_module="xicm.conf", version_base="1.3"):
-        cfg = compose(config_name="config", overrides=[f"llm={alias}"])
-    options = OmegaConf.to_container(cfg.llm, resolve=True)
-    options.pop("name")
-    return {**options, **overrides}
 
 
 def parse_value(text: str):
@@ -179,7 +168,7 @@ def main() -> None:
     for r in range(args.rounds):
         for mode in (modes if r % 2 == 0 else modes[::-1]):
             overrides, clients = MODES[mode]
-            out = run_mode(llm_options(args.llm, {**common, **overrides}), clients, episodes, args.anchored)
+            out = run_mode({**llm_options(args.llm), **common, **overrides}, clients, episodes, args.anchored)
             results[mode].append(out)
             print(f"  round {r} {mode}: {out['wall']:.1f} s", flush=True)
     baseline = results["serial"][0] if "serial" in results else None

