@@ -8,18 +8,25 @@ episode: an episode's calls go one after another, as the policy asks again after
 reply, and `clients` episodes run at once, as `envs=N` slots do. Each mode is one server setting
 and a number of concurrent episodes:
 
-    serial       the alias as it is (one slot), one episode at a time: today's engine
+    serial       the alias as it is (one slot), one episode at a time
     serial_nospec   the same without speculative decoding (llm.speculative=none)
+    serial_d64   serial with llama.cpp's own ngram-mod sizes (draft_max 64, draft_min 48,
+                 draft_lookup 24): the engine every run had before draft_max reached the server
     slots2       llm.parallel=2, two episodes at a time (envs=2)
     slots4       llm.parallel=4, four episodes at a time (envs=4)
     slots2_nospec   slots2 without speculative decoding
     slots2_max8  slots2 with replies bounded to 8 actions by the grammar (llm.max_actions=8)
+    slots2_d64   slots2 with llama.cpp's own ngram-mod sizes (as serial_d64)
+    slots2_short slots2 with short drafts found from short lookups (draft_max 16, draft_min 2,
+                 draft_lookup 12)
+    slots2_simple   slots2 with ngram-simple drafts (draft_max 16, draft_lookup 12)
 
 Modes run one after another on the same episodes, each on a fresh server (a cold cache), and
 the order alternates over `--rounds`, so slow phases of the machine hit all alike. Reported per
 mode: wall seconds, episodes/hour, LLM seconds per episode (wall x clients / episodes), prefill
-and decode tokens/s and prompt tokens reused (llama-server's timings), and the replies identical
-to the serial mode's (greedy decoding; a batch sums in another order, so a reply may differ).
+and decode tokens/s, prompt tokens reused and draft tokens accepted of those tried (llama-server's
+timings), and the replies identical to the first mode's, the baseline of the ratios (greedy
+decoding; a batch or a draft's check sums in another order, so a reply may differ).
 
     .venv/bin/python benchmarks/bench_llm_throughput.py RUN_DIR --llm qwen2_5_coder_0_5b --episodes 8
     .venv/bin/python benchmarks/bench_llm_throughput.py RUN_DIR --modes serial,slots2 --set grammar=actions
@@ -41,10 +48,14 @@ from bench_llm_stage import llm_options  # the options of `llm=<alias>` as a run
 MODES = {
     "serial": ({}, 1),
     "serial_nospec": ({"speculative": "none"}, 1),
+    "serial_d64": ({"draft_max": 64, "draft_min": 48, "draft_lookup": 24}, 1),
     "slots2": ({"parallel": 2}, 2),
     "slots4": ({"parallel": 4}, 4),
     "slots2_nospec": ({"parallel": 2, "speculative": "none"}, 2),
     "slots2_max8": ({"parallel": 2, "max_actions": 8}, 2),
+    "slots2_d64": ({"parallel": 2, "draft_max": 64, "draft_min": 48, "draft_lookup": 24}, 2),
+    "slots2_short": ({"parallel": 2, "draft_max": 16, "draft_min": 2, "draft_lookup": 12}, 2),
+    "slots2_simple": ({"parallel": 2, "speculative": "ngram-simple", "draft_max": 16, "draft_lookup": 12}, 2),
 }
 
 
@@ -132,6 +143,8 @@ def summarise(mode: str, clients: int, runs: list[dict], n_episodes: int, baseli
     prefill_s = sum(t.get("prompt_ms", 0) for t in timings) / 1000
     decode_n = sum(t.get("predicted_n", 0) for t in timings)
     decode_s = sum(t.get("predicted_ms", 0) for t in timings) / 1000
+    drafted = sum(t.get("draft_n", 0) for t in timings)
+    accepted = sum(t.get("draft_n_accepted", 0) for t in timings)
     reused = statistics.median(t.get("cache_n", 0) for t in timings) if timings else 0
     prompt = statistics.median(t.get("prompt_tokens", 0) for t in timings) if timings else 0
     same = "-"
@@ -142,7 +155,8 @@ def summarise(mode: str, clients: int, runs: list[dict], n_episodes: int, baseli
     return (f"{mode:14s} {clients:>2d}  wall {wall:7.1f} s (runs {', '.join(f'{w:.1f}' for w in walls)})  "
             f"{3600 * n_episodes / wall:7.1f} episodes/h  {wall * clients / n_episodes:6.1f} LLM s/episode  "
             f"prefill {prefill_n / max(prefill_s, 1e-9):6.1f} tok/s  decode {decode_n / max(decode_s, 1e-9):5.1f} tok/s "
-            f"(per stream)  prompt {prompt:.0f} tok, reused {reused:.0f}  same as serial {same}")
+            f"(per stream)  prompt {prompt:.0f} tok, reused {reused:.0f}  drafts {accepted}/{drafted} accepted "
+            f"({accepted / max(decode_n, 1):.0%} of decoded)  same {same}")
 
 
 def main() -> None:
@@ -171,14 +185,15 @@ def main() -> None:
             out = run_mode({**llm_options(args.llm), **common, **overrides}, clients, episodes, args.anchored)
             results[mode].append(out)
             print(f"  round {r} {mode}: {out['wall']:.1f} s", flush=True)
-    baseline = results["serial"][0] if "serial" in results else None
-    print(f"\nmode       clients  (median over {args.rounds} round(s); tok/s from llama-server's timings)")
+    first = modes[0]  # the baseline: ratios and identical replies are against the first mode
+    baseline = results[first][0]
+    print(f"\nmode       clients  (median over {args.rounds} round(s); tok/s from llama-server's timings; "
+          f"'same' against {first})")
     for mode in modes:
-        print(summarise(mode, MODES[mode][1], results[mode], len(episodes), baseline if mode != "serial" else None))
-    if baseline is not None:
-        base_wall = statistics.median(r["wall"] for r in results["serial"])
-        print("episodes/hour against serial: " + ", ".join(
-            f"{m} {base_wall / statistics.median(r['wall'] for r in results[m]):.2f}x" for m in modes if m != "serial"))
+        print(summarise(mode, MODES[mode][1], results[mode], len(episodes), baseline if mode != first else None))
+    base_wall = statistics.median(r["wall"] for r in results[first])
+    print(f"episodes/hour against {first}: " + ", ".join(
+        f"{m} {base_wall / statistics.median(r['wall'] for r in results[m]):.2f}x" for m in modes if m != first))
 
 
 if __name__ == "__main__":

@@ -46,6 +46,7 @@ def test_eval_writes_results_and_resumes(workdir):
     assert [g["group"] for g in summary["groups"]] == ["Level-1", "Seen", "All"]
     meta = json.loads((run / "run.json").read_text())
     assert any(p["name"] == "nearest_demo" for p in meta["plugins"])
+    assert meta["retrieval_features"].startswith("minilm:")  # what the language ranking's features come from
 
     # same command again: nothing re-run, nothing lost; one more episode extends the run
     _run("xicm-eval", *args, cwd=work)

@@ -23,7 +23,7 @@ from xicm.core.text.parsing import parse_actions
 from xicm.core.contracts.schema import check_options
 from xicm.plugins.llms import llamacpp_server
 from xicm.plugins.llms.action_grammar import ACTIONS_REGEX, ANCHORED_REGEX, reply_regex
-from xicm.plugins.llms.llamacpp import LlamaCppLLM
+from xicm.plugins.llms.llamacpp import LlamaCppLLM, draft_flags
 from xicm.plugins.llms.llamacpp_options import LlamaCppOptions
 
 pytestmark = pytest.mark.llama_server
@@ -181,6 +181,19 @@ def test_speculative_decoding_leaves_the_replies_as_they_are(make_llm):
     plain, drafted = make_llm(speculative="none"), make_llm(speculative="ngram-mod")
     assert [drafted.complete_messages(messages(q)) for q in queries] == [plain.complete_messages(messages(q)) for q in queries]
     assert plain._server is not drafted._server and "--spec-type" in drafted._server.argv(0)
+
+
+def test_the_draft_sizes_reach_the_server_and_drafts_are_tried(make_llm):
+    query = messages(DEMOS[: len(DEMOS) // 3] + "['instruction': task 3, {'cube': [3, 2, 3]}]>")
+    plain = make_llm(speculative="none", max_tokens=120)
+    drafted = make_llm(speculative="ngram-mod", draft_max=8, draft_min=1, draft_lookup=2, max_tokens=120)
+    assert drafted.complete_messages(query) == plain.complete_messages(query)
+    assert drafted.last_call.get("draft_n", 0) > 0, drafted.last_call  # llama.cpp's sizes (n_min 48) try none here
+    argv = drafted._server.argv(0)
+    flags = {flag: argv[argv.index(flag) + 1] for flag in ("--spec-ngram-mod-n-max", "--spec-ngram-mod-n-min", "--spec-ngram-mod-n-match")}
+    assert flags == {"--spec-ngram-mod-n-max": "8", "--spec-ngram-mod-n-min": "1", "--spec-ngram-mod-n-match": "2"}
+    simple = LlamaCppOptions(model="m", speculative="ngram-simple", draft_max=8, draft_lookup=2)
+    assert draft_flags(simple) == ["--spec-ngram-simple-size-m", "8", "--spec-ngram-simple-size-n", "2"]
 
 
 def test_the_dry_sampler_reaches_the_server(make_llm):

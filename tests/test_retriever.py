@@ -160,6 +160,9 @@ def test_dot_scores_rank_by_the_raw_dot_product_and_keep_their_own_cache(tmp_pat
     assert [d.task for d, _ in got] == ["b_task", "a_task"]
     assert got[0][1] == pytest.approx(3.0, abs=1e-2) and got[1][1] == pytest.approx(2.0, abs=1e-2)
     assert dot.cache_path != cos.cache_path and len(list(tmp_path.glob("*.npy"))) == 2
+    # run.json records what the ranking's features come from; a resume compares it
+    assert (cos.features_key(), dot.features_key()) == (FakeWordEncoder().cache_key(), FakeWordEncoder().cache_key() + ":dot")
+    assert registry().create("retriever", {"name": "random"}).features_key() == ""
     with pytest.raises(ConfigError, match="score"):
         registry().create("retriever", {"name": "similarity", "score": "l2"}, encoder=FakeWordEncoder())
 

@@ -108,6 +108,19 @@ def test_a_resume_accepts_options_declared_after_the_run_started_and_says_which(
     assert run.added_on_resume({"c": 2}) == {"a.b": 1, "c": 2}
 
 
+def test_a_resume_with_other_retrieval_features_is_refused(tmp_path):
+    run = RunDir(tmp_path)
+    run.check_same_metadata({"retrieval_features": "dynamics:aaaa"})  # no run.json yet: nothing to compare
+    run.meta.write_text(json.dumps({"pool_size": 3600, "retrieval_features": "dynamics:aaaa"}))
+    run.check_same_metadata({"pool_size": 3600, "retrieval_features": "dynamics:aaaa", "envs": 4})
+    with pytest.raises(ConfigError, match=r"run with retrieval_features 'dynamics:aaaa', this run has 'dynamics:bbbb'"):
+        run.check_same_metadata({"pool_size": 3600, "retrieval_features": "dynamics:bbbb"})
+    with pytest.raises(ConfigError, match=r"pool_size 3600, this run has 200"):
+        run.check_same_metadata({"pool_size": 200})
+    run.meta.write_text(json.dumps({"pool_size": 3600}))  # recorded before the key existed: not compared
+    run.check_same_metadata({"pool_size": 3600, "retrieval_features": "dynamics:bbbb"})
+
+
 def test_a_run_json_without_a_config_is_refused_when_the_fingerprint_differs(tmp_path):
     run = RunDir(tmp_path)
     run.meta.write_text(json.dumps({"fingerprint": "0123"}))

@@ -51,6 +51,7 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         instructions=cfg.benchmark.instructions,
         scene_seed=cfg.benchmark.scene_seed,
     ) as runner:
+        run_dir.check_same_metadata(runner.metadata)
         write_json_atomic(
             RunDir(out_dir).meta,
             {

@@ -148,6 +148,11 @@ class Retriever(ABC):
     def prepare(self, pool: list[Demo]) -> None:
         """Called once per run with the whole pool (compute and cache pool features here)."""
 
+    def features_key(self) -> str:
+        """What the ranking's features come from (a model and its weights' hash), for run.json:
+        a resume whose key differs is refused. "" for a retriever with no learned features."""
+        return ""
+
     @abstractmethod
     def select(self, query: Query, pool: list[Demo], k: int, rng: np.random.Generator) -> list[tuple[Demo, float]]:
         """k distinct demos with their scores, best first."""

@@ -46,6 +46,9 @@ OUTSIDE_IDENTITY = (
     "serve", "envs", "report",
 )
 GROWS_ON_RESUME = ("seeds", "episodes")
+#: run.json facts a resume must match beside the config: the pool's size, and what the retriever's
+#: features come from (Retriever.features_key: the same config with other weights ranks otherwise)
+RESUME_MUST_MATCH = ("pool_size", "retrieval_features")
 IDENTITY = "identity"  # run.json's key for identity(cfg): what a resume compares key by key
 ADDED_ON_RESUME = "added_on_resume"  # run.json's key: options resumes added, with their values  # re-running a run with more of them extends it
 MERGE_MAY_DIFFER = ("benchmark.tasks", "seeds", "episodes")  # merged runs cover different tasks/seeds
@@ -217,6 +220,20 @@ class RunDir:
                 f"{': ' + shown if shown else ''}); choose another output folder with hydra.run.dir=... or delete that one"
             )
         return {k: new[k] for k in sorted(new.keys() - old.keys())}
+
+    def check_same_metadata(self, metadata: dict[str, Any], keys: Iterable[str] = RESUME_MUST_MATCH) -> None:
+        """Refuse a resume whose run metadata differs from what run.json recorded for `keys`
+        (e.g. a retriever's features made by other weights under the same config); a key the
+        earlier run did not record is not compared."""
+        if not self.meta.exists():
+            return
+        meta = self.read_meta()
+        for key in keys:
+            if key in meta and key in metadata and meta[key] != metadata[key]:
+                raise ConfigError(
+                    f"{self.path} holds episodes run with {key} {meta[key]!r}, this run has {metadata[key]!r} "
+                    "(the same config, other weights or data); restore those, or choose another output folder"
+                )
 
     def added_on_resume(self, added: dict[str, Any]) -> dict[str, Any]:
         """`added` (from check_same_run) joined to what earlier resumes of this run added."""

@@ -56,9 +56,12 @@ startup_timeout_s (120), timeout_s (900)
     Seconds for the server to load the model, and for one reply.
 server_args (None)
     More llama-server arguments, as a list.
-speculative ("ngram-mod"), draft_max (16)
+speculative ("ngram-mod"), draft_max (16), draft_min (48), draft_lookup (24)
     llama.cpp's speculative decoding from n-grams of the context (``none``, ``ngram-simple``,
-    ``ngram-mod``): up to draft_max guessed tokens checked in one pass. X-ICM replies copy
+    ``ngram-mod``): the last draft_lookup tokens are looked up in the context, and up to draft_max
+    tokens that followed them there are checked in one pass (ngram-mod tries no draft shorter than
+    draft_min, capped at draft_max; ngram-simple has no minimum). llama.cpp warns that ngram-mod
+    lookups under 16 tokens guess poorly. X-ICM replies copy
     stretches of the demos and repeat actions, so guesses often hold; greedy replies are the
     same as without it (tested), so it is not part of identity(). Measured in docs/DESIGN.md.
 repack (false)
@@ -115,7 +118,7 @@ class LlamaCppLLM(LLM):
         self.startup_timeout_s, self.timeout_s = float(o.startup_timeout_s), float(o.timeout_s)
         self.server_args = [str(a) for a in (o.server_args or [])] + ([] if o.repack else ["--no-repack"])
         if o.speculative != "none":  # drafts are verified by the model: the replies do not change
-            self.server_args += ["--spec-type", o.speculative, "--spec-draft-n-max", str(o.draft_max)]
+            self.server_args += ["--spec-type", o.speculative, *draft_flags(o)]
         self._server = None
         self._client = None
         self.last_call: dict[str, Any] = {}  # token counts and timings of the last reply
@@ -217,13 +220,24 @@ class LlamaCppLLM(LLM):
         )
 
 
+def draft_flags(o: LlamaCppOptions) -> list[str]:
+    """llama-server's flags for the draft sizes of `o.speculative`. Each n-gram method reads its
+    own (llama.cpp 11434, common/arg.cpp); ``--spec-draft-n-max`` sizes a draft *model*'s drafts
+    and leaves these untouched."""
+    if o.speculative == "ngram-mod":
+        return ["--spec-ngram-mod-n-max", str(o.draft_max), "--spec-ngram-mod-n-min", str(min(o.draft_min, o.draft_max)),
+                "--spec-ngram-mod-n-match", str(o.draft_lookup)]
+    return ["--spec-ngram-simple-size-m", str(o.draft_max), "--spec-ngram-simple-size-n", str(o.draft_lookup)]
+
+
 def _usage(reply) -> dict[str, Any]:
     """Token counts and llama-server's timings (prompt_n, prompt_ms, predicted_n, predicted_ms,
-    cache_n) of a reply, as plain numbers."""
+    cache_n; draft_n and draft_n_accepted when drafts were tried) of a reply, as plain numbers."""
     extra = dict(getattr(reply, "model_extra", None) or {})
     timings = extra.get("timings") or {}
     usage = getattr(reply, "usage", None)
-    out = {key: timings[key] for key in ("prompt_n", "prompt_ms", "predicted_n", "predicted_ms", "cache_n") if key in timings}
+    keys = ("prompt_n", "prompt_ms", "predicted_n", "predicted_ms", "cache_n", "draft_n", "draft_n_accepted")
+    out = {key: timings[key] for key in keys if key in timings}
     if usage is not None:
         out["prompt_tokens"] = usage.prompt_tokens
         out["completion_tokens"] = usage.completion_tokens

@@ -39,4 +39,6 @@ class LlamaCppOptions:
     server_args: Optional[List[str]] = None
     repack: bool = False
     speculative: str = field(default="ngram-mod", metadata=one_of("none", "ngram-simple", "ngram-mod"))
-    draft_max: int = field(default=16, metadata=at_least(1))
+    draft_max: int = field(default=16, metadata=at_least(1))  # the most tokens one draft guesses
+    draft_min: int = field(default=48, metadata=at_least(0))  # ngram-mod: shorter drafts are not tried
+    draft_lookup: int = field(default=24, metadata=at_least(1))  # tokens matched to find a draft

@@ -90,10 +90,13 @@ class SimilarityRetriever(Retriever):
         self.cache_path: Path | None = None
         self.cache_hit: bool | None = None
 
+    def features_key(self) -> str:
+        return self.encoder.cache_key() + ("" if self.score == "cosine" else f":{self.score}")
+
     def prepare(self, pool: list[Demo]) -> None:
         if not pool:
             raise ValueError("the demonstration pool is empty; collect demonstrations first (xicm-collect)")
-        key = self.encoder.cache_key() + ("" if self.score == "cosine" else f":{self.score}")
+        key = self.features_key()
         slug = re.sub(r"[^A-Za-z0-9._-]+", "_", key)[:60]
         fingerprint = pool_fingerprint(key, pool, with_images=getattr(self.encoder, "uses_images", False))
         path = self.cache_dir / f"{slug}-{fingerprint[:24]}.npy"

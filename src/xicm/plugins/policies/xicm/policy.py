@@ -103,7 +103,8 @@ class XICMPolicy(Policy):
         return actions
 
     def run_metadata(self) -> dict:
-        return {"pool": self.pool_path, "pool_size": len(self.pool)}
+        features = self.retriever.features_key()
+        return {"pool": self.pool_path, "pool_size": len(self.pool), **({"retrieval_features": features} if features else {})}
 
     def record(self) -> dict:
         return {**self._record, "timings": dict(self._timings), "transcript": list(self._calls)}
