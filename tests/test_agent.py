@@ -105,7 +105,9 @@ def test_the_factory_builds_the_configured_parts_over_the_pool_file(sim, smoke_p
     policy = create_xicm_policy(XicmPolicyOptions(3, 2, str(path), ["push_buttons"]), PolicyContext(cfg, get_registry(), sim))
     assert (policy.k, policy.max_llm_calls, type(policy.llm).__name__) == (3, 2, "NearestDemoLLM")
     assert {d.task for d in policy.pool} == {"push_buttons"} and len(policy.pool) == 2
-    assert policy.run_metadata() == {"pool": str(path), "pool_size": 2}
+    meta = policy.run_metadata()
+    assert (meta["pool"], meta["pool_size"]) == (str(path), 2)
+    assert meta["retrieval_features"].startswith("minilm:sentence-transformers/all-MiniLM-L6-v2:"), meta
 
 
 def test_the_factory_refuses_a_pool_without_the_asked_tasks(sim, smoke_pool):
