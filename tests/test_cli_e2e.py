@@ -159,5 +159,11 @@ def test_eval_with_llamacpp_runs_the_grammar_and_leaves_no_server(workdir, tmp_p
     assert len(rows) == 3 and all(r["responses"] for r in rows)
     assert all(re.fullmatch(ACTIONS_REGEX, reply) for r in rows for reply in r["responses"])
     assert not {r["error_kind"] for r in rows} & {"parse_error", "llm_error", "internal_error"}
+    # the engine's speed options say how the run is done: another thread count resumes it, and run.json says so
+    _run("xicm-eval", *[{"episodes=1": "episodes=2", "llm.threads=1": "llm.threads=2"}.get(a, a) for a in args], cwd=work)
+    assert len((work / "llamacpp" / "episodes.jsonl").read_text().splitlines()) == 6
+    meta = json.loads((work / "llamacpp" / "run.json").read_text())
+    assert meta["how_on_resume"] == [{"episodes_before": 3, "changed": {"llm.threads": [1, 2]}}]
+    assert "llm.threads" not in meta["identity"] and meta["config"]["llm"]["threads"] == 2
     left = subprocess.run(["pgrep", "-f", str(model)], capture_output=True, text=True)
     assert left.stdout.strip() == "", "a llama-server outlived xicm-eval"

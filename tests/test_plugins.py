@@ -4,6 +4,7 @@ import sys
 from unittest import mock
 
 import pytest
+from omegaconf import OmegaConf
 
 import xicm
 
@@ -84,6 +85,16 @@ def test_every_built_in_llm_declares_whether_it_is_deterministic(registry):
     for name in registry.names("llm"):
         cls = registry.get("llm", name).factory
         assert issubclass(cls, LLM) and "deterministic" not in cls.__abstractmethods__, name
+
+
+def test_how_keys_are_the_configured_plugins_options_that_say_how_a_run_is_done(registry):
+    cfg = OmegaConf.create({"llm": {"name": "llamacpp"}, "retriever": {"name": "random"}, "encoder": {"name": None},
+                            "policy": {"name": "remote"}, "paths": {"data": "data"}})
+    keys = set(registry.how_keys(cfg))
+    assert {"llm.threads", "llm.parallel", "llm.speculative", "llm.draft_max", "llm.timeout_s", "policy.timeout_s"} <= keys
+    # what changes a reply stays in the run's identity
+    assert not {"llm.model", "llm.temperature", "llm.max_tokens", "llm.grammar", "llm.binary", "llm.server_args"} & keys
+    assert registry.how_keys({"llm": {"name": "nearest_demo"}, "retriever": {"name": "random"}}) == []
 
 
 def test_two_plugins_claiming_one_name_is_an_error():

@@ -12,6 +12,7 @@ from xicm.core.contracts.errors import ConfigError
 from xicm.core.results.run_dir import (
     ADDED_ON_RESUME,
     GROWS_ON_RESUME,
+    HOW_ON_RESUME,
     IDENTITY,
     OUTSIDE_IDENTITY,
     RunDir,
@@ -106,6 +107,32 @@ def test_a_resume_accepts_options_declared_after_the_run_started_and_says_which(
     assert run.check_same_run(OmegaConf.create({"prompt": {"k": 2, "n": "${seeds}"}, "seeds": [0]})) == {"prompt.n": "[0]"}
     run.meta.write_text(json.dumps({"fingerprint": "old", ADDED_ON_RESUME: {"a.b": 1}}))
     assert run.added_on_resume({"c": 2}) == {"a.b": 1, "c": 2}
+
+
+def test_options_that_say_how_a_run_is_done_neither_block_a_resume_nor_hide_a_change(tmp_path):
+    run = RunDir(tmp_path)
+    how = ["llm.threads", "llm.timeout_s"]
+    first = {"llm": {"model": "m", "threads": 2, "timeout_s": 900}, "seeds": [0]}
+    # written before the keys were marked: the identity holds them, and they are still not compared
+    run.meta.write_text(json.dumps({"fingerprint": config_fingerprint(first), IDENTITY: identity(first), "config": first}))
+    faster = {"llm": {"model": "m", "threads": 16, "timeout_s": 60}, "seeds": [0]}
+    with pytest.raises(ConfigError, match=r"llm.threads 2 -> 16"):  # unmarked, they are what the run is
+        run.check_same_run(faster)
+    assert run.check_same_run(faster, how) == {}
+    assert config_fingerprint(faster, how) == config_fingerprint(first, how) != config_fingerprint(first)
+    assert "llm.threads" not in identity(faster, how=how) and identity(faster, how=how)["llm.model"] == "m"
+    with pytest.raises(ConfigError, match=r"llm.model 'm' -> 'n'"):  # the other keys still are
+        run.check_same_run({"llm": {"model": "n", "threads": 16, "timeout_s": 60}, "seeds": [0]}, how)
+    # the change is told and kept: which keys, from what to what, after how many episodes
+    with run.appending_episodes() as append:
+        append(row("a", 0, 0))
+    changed = run.how_changed(faster, how)
+    assert changed == {"llm.threads": [2, 16], "llm.timeout_s": [900, 60]}
+    assert run.how_on_resume(changed) == [{"episodes_before": 1, "changed": changed}]
+    assert run.how_changed(first, how) == {} and run.how_on_resume({}) == []
+    run.meta.write_text(json.dumps({"config": faster, HOW_ON_RESUME: [{"episodes_before": 1, "changed": changed}]}))
+    assert run.how_on_resume({"llm.threads": [16, 4]})[-1] == {"episodes_before": 1, "changed": {"llm.threads": [16, 4]}}
+    assert len(run.how_on_resume({"llm.threads": [16, 4]})) == 2
 
 
 def test_a_resume_with_other_retrieval_features_is_refused(tmp_path):

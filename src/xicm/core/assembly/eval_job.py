@@ -12,7 +12,7 @@ from xicm.core.assembly import build, checks
 from xicm.core.results.atomic import write_json_atomic
 from xicm.core.execution.episode_runner import episode_runner
 from xicm.core.assembly.plugins import describe_plugins, get_registry
-from xicm.core.results.run_dir import ADDED_ON_RESUME, IDENTITY, RunDir, config_fingerprint, episode_keys, identity
+from xicm.core.results.run_dir import ADDED_ON_RESUME, HOW_ON_RESUME, IDENTITY, RunDir, config_fingerprint, episode_keys, identity
 from xicm.core.execution.run_loop import run_all_episodes
 from xicm.core.results.tracking import Tracker
 from xicm.core.results.video import VideoSettings
@@ -27,13 +27,19 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
     checks.check_run(cfg, registry, tasks)
     video = VideoSettings.from_config(cfg.video, out_dir)
     run_dir = RunDir(out_dir)
-    added = run_dir.check_same_run(cfg)
+    how = registry.how_keys(cfg)  # options that change how the run is done, not what it measures
+    added = run_dir.check_same_run(cfg, how)
     if added:
         log.warning(
             "resuming %s with options declared after it started (%s); its earlier episodes ran before they existed",
             out_dir, ", ".join(f"{k}={v}" for k, v in added.items()),
         )
     added = run_dir.added_on_resume(added)  # this resume's and earlier resumes'
+    changed = run_dir.how_changed(cfg, how)
+    if changed:
+        log.info("resuming %s with %s (how it runs, not what it measures)", out_dir,
+                 ", ".join(f"{k} {a!r} -> {b!r}" for k, (a, b) in changed.items()))
+    how_changes = run_dir.how_on_resume(changed)  # this resume's and earlier resumes'
     out_dir.mkdir(parents=True, exist_ok=True)
 
     plugins = describe_plugins(registry.pm)
@@ -55,9 +61,10 @@ def run_eval(cfg: DictConfig, out_dir: Path) -> dict[str, Any]:
         write_json_atomic(
             RunDir(out_dir).meta,
             {
-                "fingerprint": config_fingerprint(cfg),
-                IDENTITY: identity(cfg),
+                "fingerprint": config_fingerprint(cfg, how),
+                IDENTITY: identity(cfg, how=how),
                 **({ADDED_ON_RESUME: added} if added else {}),
+                **({HOW_ON_RESUME: how_changes} if how_changes else {}),
                 "tasks": tasks,
                 "splits": splits,
                 **runner.metadata,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib
 import logging
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import metadata
 from typing import TYPE_CHECKING, Any, Callable
@@ -148,6 +149,22 @@ class Registry:
             values = {k: v for k, v in options.items() if k != "name"}
             check_options(values, reg.extra["options"], prefix=kind, owner=f"{kind} '{reg.name}'")
         return reg
+
+    def how_keys(self, cfg: Mapping[str, Any]) -> list[str]:
+        """The dotted config keys of the configured plugins' options that say how a run is done,
+        not what it measures (fields their schema marks with xicm.core.contracts.schema.how):
+        kept outside the run's identity, so changing one resumes a run."""
+        from xicm.core.contracts.schema import how_fields
+
+        keys = []
+        for kind in KINDS:
+            group = cfg.get(kind)
+            name = group.get("name") if isinstance(group, Mapping) else None
+            entry = self._entries[kind].get(name) if isinstance(name, str) else None
+            schema = entry.extra.get("options") if entry is not None else None
+            if schema is not None:
+                keys += [f"{kind}.{field}" for field in how_fields(schema)]
+        return keys
 
     def create(self, kind: str, options: dict[str, Any], **deps: Any) -> Any:
         """Build the plugin named by options['name'] (its options checked first).

@@ -25,6 +25,7 @@ from omegaconf.errors import OmegaConfBaseException
 from xicm.core.contracts.errors import ConfigError
 
 RULE = "xicm_rule"  # the dataclass field metadata key of a Rule
+HOW = "xicm_how"  # field metadata key: the option says how a run is done, not what it measures
 UNIONS = (typing.Union, types.UnionType)  # Optional[int] and int | None
 
 
@@ -56,6 +57,18 @@ def between(low: float, high: float) -> dict[str, Rule]:
 
 def one_of(*choices: str) -> dict[str, Rule]:
     return rule(lambda v: v in choices, "one of " + ", ".join(choices))
+
+
+def how(metadata: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Field metadata for an option that changes how a run is done (threads, slots, timeouts,
+    where files are kept), not what it measures: it stays outside the run's identity, so a run
+    resumes under another value (`field(default=2, metadata=how(at_least(1)))`)."""
+    return {**(metadata or {}), HOW: True}
+
+
+def how_fields(schema: type) -> list[str]:
+    """The names of a schema's fields marked with `how`."""
+    return [f.name for f in dataclasses.fields(schema) if f.metadata.get(HOW)]
 
 
 def is_number(value: Any) -> bool:

@@ -14,6 +14,7 @@ row flushed and fsynced; a row torn by a kill is cut before the next append).
 from __future__ import annotations
 
 import contextlib
+import copy
 import hashlib
 import json
 import os
@@ -50,6 +51,7 @@ GROWS_ON_RESUME = ("seeds", "episodes")
 #: features come from (Retriever.features_key: the same config with other weights ranks otherwise)
 RESUME_MUST_MATCH = ("pool_size", "retrieval_features")
 IDENTITY = "identity"  # run.json's key for identity(cfg): what a resume compares key by key
+HOW_ON_RESUME = "how_on_resume"  # run.json's key: resumes that changed how the run is done (schema.how options)
 ADDED_ON_RESUME = "added_on_resume"  # run.json's key: options resumes added, with their values  # re-running a run with more of them extends it
 MERGE_MAY_DIFFER = ("benchmark.tasks", "seeds", "episodes")  # merged runs cover different tasks/seeds
 
@@ -195,22 +197,24 @@ class RunDir:
         with open(self.episodes, "r+b") as f:
             f.truncate(data.rfind(b"\n") + 1)
 
-    def check_same_run(self, cfg: DictConfig | dict[str, Any]) -> dict[str, Any]:
+    def check_same_run(self, cfg: DictConfig | dict[str, Any], how: Iterable[str] = ()) -> dict[str, Any]:
         """Refuse to mix episodes of two different configs in one folder (ConfigError naming the
         keys that differ). A config that only adds keys the run's config did not have (options
         declared after the run started) resumes it: those keys and their values are returned,
-        so the caller can say so; {} when nothing was added."""
+        so the caller can say so; {} when nothing was added. `how`: dotted keys of options that
+        say how the run is done (Registry.how_keys), never compared, even where an earlier
+        run.json holds them in its identity."""
         if not self.meta.exists():
             return {}
+        how = tuple(how)
         meta = self.read_meta()
-        old_print, new_print = meta.get("fingerprint"), config_fingerprint(cfg)
+        old_print, new_print = meta.get("fingerprint"), config_fingerprint(cfg, how)
         if old_print == new_print:
             return {}
         # run.json files written before IDENTITY existed hold only the resolved config
         old = meta.get(IDENTITY)
-        new = identity(cfg, resolve=old is None)
-        if old is None:
-            old = identity(meta.get("config") or {})
+        new = identity(cfg, resolve=old is None, how=how)
+        old = identity(meta.get("config") or {}, how=how) if old is None else {k: v for k, v in old.items() if not outside_identity(k, how)}
         changed = [f"{k} {old[k]!r} -> {new[k]!r}" for k in sorted(old.keys() & new.keys()) if old[k] != new[k]]
         changed += [f"{k} {old[k]!r} -> (absent)" for k in sorted(old.keys() - new.keys())]
         if changed or not old:
@@ -220,6 +224,21 @@ class RunDir:
                 f"{': ' + shown if shown else ''}); choose another output folder with hydra.run.dir=... or delete that one"
             )
         return {k: new[k] for k in sorted(new.keys() - old.keys())}
+
+    def how_changed(self, cfg: DictConfig | dict[str, Any], how: Iterable[str]) -> dict[str, list[Any]]:
+        """The `how` keys whose values this start changes against run.json's config, as
+        {key: [earlier, now]} (resolved values, so `${envs}` reads as its number); {} for a new run."""
+        if not self.meta.exists():
+            return {}
+        before = flatten(self.read_meta().get("config") or {})
+        now = flatten(OmegaConf.to_container(cfg, resolve=True) if isinstance(cfg, DictConfig) else dict(cfg))
+        return {k: [before[k], now.get(k)] for k in how if k in before and before[k] != now.get(k)}
+
+    def how_on_resume(self, changed: dict[str, list[Any]]) -> list[dict[str, Any]]:
+        """run.json's HOW_ON_RESUME, with this start's `changed` (from how_changed) appended as
+        {"episodes_before": rows written before it, "changed": changed} when there is one."""
+        earlier = list(self.read_meta().get(HOW_ON_RESUME) or []) if self.meta.exists() else []
+        return earlier + ([{"episodes_before": len(self.read_episodes()), "changed": changed}] if changed else [])
 
     def check_same_metadata(self, metadata: dict[str, Any], keys: Iterable[str] = RESUME_MUST_MATCH) -> None:
         """Refuse a resume whose run metadata differs from what run.json recorded for `keys`
@@ -270,10 +289,18 @@ def overrides_outside_identity(overrides: Iterable[str]) -> list[str]:
     return [override_key(o) for o in overrides if outside_identity(o)]
 
 
-def config_fingerprint(cfg: DictConfig | dict[str, Any]) -> str:
-    """Hash of the unresolved config without the keys outside identity and those that grow on resume."""
-    data = OmegaConf.to_container(cfg, resolve=False) if isinstance(cfg, DictConfig) else dict(cfg)
+def config_fingerprint(cfg: DictConfig | dict[str, Any], how: Iterable[str] = ()) -> str:
+    """Hash of the unresolved config without the keys outside identity, those that grow on resume
+    and the `how` keys (dotted: Registry.how_keys)."""
+    data = OmegaConf.to_container(cfg, resolve=False) if isinstance(cfg, DictConfig) else copy.deepcopy(dict(cfg))
     kept = {k: v for k, v in data.items() if not outside_identity(k, GROWS_ON_RESUME)}
+    for key in how:
+        *parents, leaf = key.split(".")
+        group = kept
+        for part in parents:
+            group = group.get(part) if isinstance(group, dict) else None
+        if isinstance(group, dict):
+            group.pop(leaf, None)
     return hashlib.sha256(json.dumps(kept, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
@@ -287,11 +314,11 @@ def flatten(data: Any, prefix: str = "") -> dict[str, Any]:
     return {prefix[:-1]: json.dumps(data) if isinstance(data, list) else data}
 
 
-def identity(cfg: DictConfig | dict[str, Any], resolve: bool = False) -> dict[str, Any]:
+def identity(cfg: DictConfig | dict[str, Any], resolve: bool = False, how: Iterable[str] = ()) -> dict[str, Any]:
     """The config's keys that make a run what it is, as {dotted.key: value} (run.json's IDENTITY:
-    unresolved, so `${paths.cache}/...` reads the same on every machine)."""
+    unresolved, so `${paths.cache}/...` reads the same on every machine), without the `how` keys."""
     data = OmegaConf.to_container(cfg, resolve=resolve) if isinstance(cfg, DictConfig) else dict(cfg)
-    return {k: v for k, v in flatten(data).items() if not outside_identity(k, GROWS_ON_RESUME)}
+    return {k: v for k, v in flatten(data).items() if not outside_identity(k, (*GROWS_ON_RESUME, *how))}
 
 
 def short_name(text: str, limit: int) -> str:

@@ -110,7 +110,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Optional
 
-from xicm.core.contracts.schema import above, at_least, one_of, rule
+from xicm.core.contracts.schema import above, at_least, how, one_of, rule
 from xicm.plugins.llms import model_files, stopping
 from xicm.plugins.llms.action_grammar import GRAMMARS
 
@@ -123,7 +123,7 @@ class TransformersLocalOptions:
     """The options above, as the registry checks them before anything is built."""
 
     model: str = model_files.EMBEDDED
-    cache_dir: Optional[str] = None
+    cache_dir: Optional[str] = field(default=None, metadata=how())
     max_new_tokens: int = field(default=256, metadata=at_least(1))
     do_sample: bool = False
     temperature: float = field(default=0.1, metadata=above(0))  # transformers refuses 0 when sampling
@@ -136,12 +136,12 @@ class TransformersLocalOptions:
     stop: Any = "auto"  # 'auto', null, a string or a list of strings: checked by the LLM itself
     dtype: str = "float32"
     device: str = "auto"
-    torch_threads: Optional[int] = field(default=None, metadata=at_least(1))
+    torch_threads: Optional[int] = field(default=None, metadata=how(at_least(1)))
     trust_remote_code: bool = False
-    fast: bool = True
+    fast: bool = field(default=True, metadata=how())
     stop_at_action_list: bool = True
     on_repeated_action: str = field(default="decode", metadata=one_of(*stopping.REPEAT_MODES))
-    prefix_cache: bool = True
-    draft_tokens: int = field(default=16, metadata=at_least(0))
+    prefix_cache: bool = field(default=True, metadata=how())
+    draft_tokens: int = field(default=16, metadata=how(at_least(0)))
     grammar: str = field(default="actions", metadata=one_of(*GRAMMARS))
     reduced_output_layer: bool = True

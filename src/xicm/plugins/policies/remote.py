@@ -18,7 +18,7 @@ from typing import Dict, List, Optional
 from xicm.core.contracts.errors import ConfigError, EpisodeFailure
 from xicm.core.contracts.hookspecs import hookimpl
 from xicm.core.contracts.interfaces import Policy
-from xicm.core.contracts.schema import above, at_least
+from xicm.core.contracts.schema import above, at_least, how
 from xicm.core.contracts.spaces import GRIPPER_CLOSED, GRIPPER_OPEN, ControlSpec
 
 DEFAULT_IMAGES = MappingProxyType({"front": "observation/image"})  # camera -> request key (read-only)
@@ -131,8 +131,8 @@ def _jsonable(value):
 class RemotePolicyOptions:
     host: str = "127.0.0.1"  # or a ws:// / wss:// URI
     port: Optional[int] = field(default=8000, metadata=at_least(1))
-    timeout_s: float = field(default=30.0, metadata=above(0))  # per request, and for connecting
-    api_key_env: Optional[str] = None  # the NAME of the environment variable holding the server's key
+    timeout_s: float = field(default=30.0, metadata=how(above(0)))  # per request, and for connecting
+    api_key_env: Optional[str] = field(default=None, metadata=how())  # the NAME of the environment variable holding the server's key
     control_mode: str = "auto"  # auto, or one of the simulator's control modes (checked when built)
     chunk_steps_to_execute: Optional[int] = field(default=None, metadata=at_least(1))  # null: the whole chunk
     # camera -> request key; null: {front: observation/image}. Null in the YAML so that a mapping
