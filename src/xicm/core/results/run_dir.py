@@ -14,7 +14,6 @@ row flushed and fsynced; a row torn by a kill is cut before the next append).
 from __future__ import annotations
 
 import contextlib
-import copy
 import hashlib
 import json
 import os
@@ -290,17 +289,9 @@ def overrides_outside_identity(overrides: Iterable[str]) -> list[str]:
 
 
 def config_fingerprint(cfg: DictConfig | dict[str, Any], how: Iterable[str] = ()) -> str:
-    """Hash of the unresolved config without the keys outside identity, those that grow on resume
-    and the `how` keys (dotted: Registry.how_keys)."""
-    data = OmegaConf.to_container(cfg, resolve=False) if isinstance(cfg, DictConfig) else copy.deepcopy(dict(cfg))
-    kept = {k: v for k, v in data.items() if not outside_identity(k, GROWS_ON_RESUME)}
-    for key in how:
-        *parents, leaf = key.split(".")
-        group = kept
-        for part in parents:
-            group = group.get(part) if isinstance(group, dict) else None
-        if isinstance(group, dict):
-            group.pop(leaf, None)
+    """Hash of the run's identity (the unresolved config without the keys outside identity, those
+    that grow on resume and the `how` keys: Registry.how_keys)."""
+    kept = identity(cfg, how=how)
     return hashlib.sha256(json.dumps(kept, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
