@@ -18,7 +18,7 @@ if ! command -v cmake >/dev/null || ! command -v g++ >/dev/null; then
 fi
 BUILD_LOG="${XICM_CACHE:-$HOME/.cache/xicm}/prebuild-llama_server-test_sh.log"
 mkdir -p "$(dirname "$BUILD_LOG")"
-LOCK=1 nohup bash scripts/build_llamacpp.sh >"$BUILD_LOG" 2>&1 &
+nohup bash scripts/build_llamacpp.sh >"$BUILD_LOG" 2>&1 &
 bash scripts/setup.sh
 export WANDB_MODE=disabled HF_HUB_OFFLINE=1 TRANSFORMERS_OFFLINE=1 XICM_STRICT_SKIPS="${XICM_STRICT_SKIPS:-1}"
 exec .venv/bin/python -m pytest -q -n "${XICM_TEST_WORKERS:-2}" "$@"

@@ -289,3 +289,18 @@ def test_stop_at_action_list_is_in_the_identity_only_when_it_cuts():
     cut = LlamaCppLLM(LlamaCppOptions(model="qwen2_5_coder_0_5b", stop_at_action_list=True))
     assert "stop_at_action_list" not in whole.identity()  # replies cached before the option stay valid
     assert '"stop_at_action_list": true' in cut.identity() and cut.stop_at_action_list
+
+
+def test_another_llama_server_build_caches_its_replies_apart(tmp_path):
+    default = LlamaCppLLM(LlamaCppOptions(model="qwen2_5_coder_0_5b"))
+    builds = []
+    for body in (b"#!/bin/sh\necho one\n", b"#!/bin/sh\necho two\n"):
+        binary = tmp_path / f"llama-server-{len(builds)}"
+        binary.write_bytes(body)
+        binary.chmod(0o755)
+        builds.append(LlamaCppLLM(LlamaCppOptions(model="qwen2_5_coder_0_5b", binary=str(binary))))
+    assert "binary" not in default.identity()  # replies cached with the default build stay valid
+    assert len({default.identity(), *(b.identity() for b in builds)}) == 3
+    missing = LlamaCppLLM(LlamaCppOptions(model="qwen2_5_coder_0_5b", binary=str(tmp_path / "absent")))
+    with pytest.raises(ConfigError, match="llm.binary .* is not an executable file"):
+        missing.identity()

