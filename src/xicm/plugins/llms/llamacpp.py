@@ -207,7 +207,8 @@ class LlamaCppLLM(LLM):
 
     def _binary_digest(self) -> str:
         """The first 16 hex digits of sha256 of `llm.binary`: another llama.cpp build may decode
-        otherwise, so its replies are cached apart. The default build is named by its version."""
+        otherwise, so its replies are cached apart. The default (pinned) build is left out of
+        identity(), so replies cached before this key existed stay valid."""
         if self._binary_sha256 is None:
             from xicm.plugins.llms.llamacpp_server import llama_server_binary
             from xicm.plugins.llms.gguf_packages import sha256_of
