@@ -304,3 +304,18 @@ def test_another_llama_server_build_caches_its_replies_apart(tmp_path):
     missing = LlamaCppLLM(LlamaCppOptions(model="qwen2_5_coder_0_5b", binary=str(tmp_path / "absent")))
     with pytest.raises(ConfigError, match="llm.binary .* is not an executable file"):
         missing.identity()
+
+
+def test_another_pinned_llama_cpp_version_caches_its_replies_apart(monkeypatch):
+    options = LlamaCppOptions(model="qwen2_5_coder_0_5b")
+    first = LlamaCppLLM(options).identity()
+    assert "llama_cpp" not in first  # replies cached under the first pinned build stay valid
+    monkeypatch.setattr(llamacpp_server, "LLAMACPP_VERSION", "99999")
+    bumped = LlamaCppLLM(options).identity()
+    assert bumped != first and '"llama_cpp": "99999"' in bumped
+
+
+def test_the_build_script_builds_the_version_the_plugin_runs():
+    script = llamacpp_server.BUILD_SCRIPT.read_text()
+    assert re.search(r'^VERSION="\$\{VERSION:-(\d+)\}"$', script, re.M).group(1) == llamacpp_server.LLAMACPP_VERSION
+    assert re.search(r'^\[ "\$VERSION" = (\d+) \] \|\| PINNED_SHA256=""$', script, re.M).group(1) == llamacpp_server.LLAMACPP_VERSION

@@ -207,8 +207,8 @@ class LlamaCppLLM(LLM):
 
     def _binary_digest(self) -> str:
         """The first 16 hex digits of sha256 of `llm.binary`: another llama.cpp build may decode
-        otherwise, so its replies are cached apart. The default (pinned) build is left out of
-        identity(), so replies cached before this key existed stay valid."""
+        otherwise, so its replies are cached apart. The default (pinned) build is named by
+        _pinned_build() instead."""
         if self._binary_sha256 is None:
             from xicm.plugins.llms.llamacpp_server import llama_server_binary
             from xicm.plugins.llms.gguf_packages import sha256_of
@@ -225,13 +225,22 @@ class LlamaCppLLM(LLM):
                 "ctx_size": self.ctx_size,
                 "max_tokens": self.max_tokens,
                 "grammar": self.grammar,
-                **({"binary_sha256": self._binary_digest()} if self.binary else {}),
+                **({"binary_sha256": self._binary_digest()} if self.binary else _pinned_build()),
                 **({"stop_at_action_list": True} if self.stop_at_action_list else {}),
                 **({"max_actions": self.max_actions} if self.max_actions is not None and self.grammar != "none" else {}),
                 **self.sampling,
             },
             sort_keys=True,
         )
+
+
+def _pinned_build() -> dict[str, str]:
+    """The default build's entry in identity(): none for the first pinned version (replies cached
+    before this key existed stay valid), its version for any later one."""
+    from xicm.plugins.llms import llamacpp_server
+
+    version = llamacpp_server.LLAMACPP_VERSION
+    return {} if version == llamacpp_server.UNNAMED_BUILD else {"llama_cpp": version}
 
 
 def draft_flags(o: LlamaCppOptions) -> list[str]:

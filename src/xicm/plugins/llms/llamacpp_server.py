@@ -32,7 +32,11 @@ from xicm.core.results.atomic import file_lock
 from xicm.core.contracts.errors import ConfigError
 from xicm.serving.ports import ServerNotReady, free_port, stop_process, wait_http_ok
 
-LLAMACPP_VERSION = "11434"
+LLAMACPP_VERSION = "11434"  # build_llamacpp.sh's default VERSION says the same (a test checks)
+# Every reply cached before identity() named the pinned build was decoded by 11434, so that build
+# stays unnamed (those caches stay valid) and any other pinned version is named: its replies are
+# cached apart.
+UNNAMED_BUILD = "11434"
 BUILD_SCRIPT = Path(__file__).with_name("build_llamacpp.sh")  # package data: wheel installs build too
 STARTS = 3  # a port taken between choosing and binding it is retried with another
 
@@ -73,7 +77,8 @@ def _build(path: Path) -> None:
     log = path.parents[2] / "build.log"
     with open(log, "w") as out:
         done = subprocess.run(["bash", str(BUILD_SCRIPT)], stdout=out, stderr=subprocess.STDOUT,
-                              env={**os.environ, "PYTHON": sys.executable, "LOCK": "0"})  # we hold its lock
+                              env={**os.environ, "PYTHON": sys.executable, "VERSION": LLAMACPP_VERSION,
+                                   "LOCK": "0"})  # we hold its lock
     if done.returncode != 0 or not path.is_file():
         raise ConfigError(f"building llama-server failed (exit {done.returncode}); see {log}, or run bash {BUILD_SCRIPT}")
 
