@@ -92,6 +92,15 @@ def test_cli_missing_pool_is_one_clear_sentence(cli, tmp_path):
     assert "no demonstration pool at" in out.stderr and "xicm-collect" in out.stderr
 
 
+def test_an_in_process_run_leaves_the_root_logger_as_it_found_it(cli, tmp_path):
+    import logging
+
+    before = logging.getLogger().handlers[:]
+    out = cli(f"paths.data={tmp_path}/nothing", cwd=tmp_path)  # far enough for Hydra to set up the job's logging
+    assert out.returncode == 2 and (tmp_path / "outputs").is_dir()
+    assert logging.getLogger().handlers == before
+
+
 def test_help_is_fast_and_lists_groups(cli, tmp_path):
     out = cli("--help", cwd=tmp_path)
     assert out.returncode == 0
